@@ -1,0 +1,30 @@
+# CD Spectra — every job is a target; each one sets up .venv first if needed.
+SHELL := /bin/bash
+PYTHON ?= $(shell command -v python3.11 || command -v python3)
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
+
+.PHONY: setup test demo bench-render clean
+
+$(STAMP): requirements.txt
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.txt
+	rm -f $(VENV)/.installed-*
+	touch $(STAMP)
+
+setup: $(STAMP)
+
+test: setup
+	$(PY) -m pytest -q
+
+demo: setup
+	$(PY) -m training.render_photo --spd samples/demo_lamps.csv --out out/demo --size 256 --noise 0.01 --format jpg
+	@echo "sample CD photos written to out/demo/"
+
+bench-render: setup
+	$(PY) -m training.bench_render --out bench/render.md
+
+clean:
+	rm -rf out build dist .pytest_cache

@@ -1,0 +1,144 @@
+"""Synthetic photos of a CD from a basis cube: camera, exposure, noise and file encoding.
+
+A photo is ``camera_c(λ_i) · Σ_i spd_i · basis_i`` (camera-native linear RGB, no white balance,
+as a raw file would hold), auto-exposed so the brightest pixel sits at 80 % of full scale times
+``exposure``, then shot + read noise, then clipped at full scale like a sensor. Integer
+encodings (PNG, JPEG) also clip at zero and use the sRGB curve; EXR keeps linear floats.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+import tempfile
+import zlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from PIL import Image
+
+from cd_spectra_addon.core.cameras import CameraProfile
+from cd_spectra_addon.core.srgb import srgb_encode
+
+FORMATS = ("exr", "png", "png16", "jpg")
+AUTO_EXPOSURE_LEVEL = 0.8
+JPEG_QUALITY = 90
+READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
+
+__all__ = ["FORMATS", "linear_photo", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
+
+
+def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: CameraProfile) -> NDArray[np.float64]:
+    """(H, W, 3) camera-native radiance: Σ_i spd_i · S_c(λ_i) · basis_i."""
+    weights = np.asarray(spd, dtype=np.float64)[:, None] * camera.sensitivities  # (81, 3)
+    bands, height, width = cube.shape
+    flat = np.asarray(cube, dtype=np.float64).reshape(bands, -1)
+    return (weights.T @ flat).T.reshape(height, width, 3)
+
+
+def expose(image: NDArray[np.float64], exposure: float = 1.0) -> tuple[NDArray[np.float64], float]:
+    """Scale so the brightest value is AUTO_EXPOSURE_LEVEL × exposure; returns (image, gain)."""
+    peak = float(np.max(image))
+    gain = AUTO_EXPOSURE_LEVEL * float(exposure) / peak if peak > 0 else 0.0
+    return image * gain, gain
+
+
+def add_noise(image: NDArray[np.float64], noise: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    """Shot noise (std noise·√x) plus read noise (std 0.2·noise), in full-scale units."""
+    if noise <= 0:
+        return image
+    std = np.sqrt(noise * noise * np.clip(image, 0.0, None) + (READ_NOISE_FRACTION * noise) ** 2)
+    return image + std * rng.standard_normal(image.shape)
+
+
+def synthesize(
+    cube: NDArray[np.floating],
+    spd: NDArray[np.floating],
+    camera: CameraProfile,
+    exposure: float = 1.0,
+    noise: float = 0.0,
+    rng: np.random.Generator | None = None,
+) -> tuple[NDArray[np.float64], float]:
+    """Sensor-level linear photo (clipped at full scale 1.0) and the exposure gain used."""
+    rng = rng if rng is not None else np.random.default_rng(0)
+    image, gain = expose(linear_photo(cube, spd, camera), exposure)
+    image = add_noise(image, noise, rng)
+    return np.minimum(image, 1.0), gain
+
+
+def exif_for(focal_length_mm: float, sensor_width_mm: float, image_width_px: int, camera_name: str) -> bytes:
+    """EXIF a real camera would write: make/model, focal length, 35 mm equivalent, and the focal
+    plane resolution (pixels per mm) from which the focal length in pixels follows."""
+    exif = Image.Exif()
+    make, _, model = camera_name.replace("_", " ").partition(" ")
+    exif[0x010F] = make
+    exif[0x0110] = model or make
+    sub = exif.get_ifd(0x8769)
+    sub[0x920A] = float(focal_length_mm)  # FocalLength
+    sub[0xA405] = int(round(focal_length_mm * 36.0 / sensor_width_mm))  # FocalLengthIn35mmFilm
+    sub[0xA20E] = float(image_width_px / sensor_width_mm)  # FocalPlaneXResolution
+    sub[0xA20F] = float(image_width_px / sensor_width_mm)  # FocalPlaneYResolution
+    sub[0xA210] = 4  # FocalPlaneResolutionUnit: millimetres
+    return exif.tobytes()
+
+
+def _png16(rgb16: NDArray[np.uint16]) -> bytes:
+    """Minimal 16-bit RGB PNG writer (Pillow cannot write 16-bit colour PNGs)."""
+    height, width, _ = rgb16.shape
+    raw = np.zeros((height, 1 + width * 6), dtype=np.uint8)
+    raw[:, 1:] = rgb16.astype(">u2").view(np.uint8).reshape(height, width * 6)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", width, height, 16, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+            + chunk(b"IEND", b""))
+
+
+def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> bytes:
+    """File bytes of a sensor-level linear photo in ``fmt``."""
+    if fmt == "exr":
+        import OpenEXR
+
+        channels = {c: np.ascontiguousarray(image[..., i], dtype=np.float32) for i, c in enumerate("RGB")}
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "photo.exr")
+            with OpenEXR.File(header, channels) as exr:
+                exr.write(path)
+            return Path(path).read_bytes()
+    encoded = srgb_encode(image)  # clips to [0, 1]
+    if fmt == "png16":
+        return _png16(np.rint(encoded * 65535.0).astype(np.uint16))
+    rgb8 = np.rint(encoded * 255.0).astype(np.uint8)
+    buffer = io.BytesIO()
+    if fmt == "png":
+        Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"")
+    elif fmt == "jpg":
+        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=JPEG_QUALITY, exif=exif or b"")
+    else:
+        raise ValueError(f"format must be one of {FORMATS}")
+    return buffer.getvalue()
+
+
+def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> None:
+    """Encode and write atomically (temporary file in the same folder, then rename)."""
+    data = encode_photo(image, fmt, exif)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+def photo_metadata(gain: float, exposure: float, noise: float, camera: str, fmt: str) -> dict[str, Any]:
+    return {"exposure_gain": gain, "exposure": exposure, "noise": noise, "camera": camera, "format": fmt,
+            "auto_exposure_level": AUTO_EXPOSURE_LEVEL}
