@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo bench-render clean
+.PHONY: setup test demo bench-render extension clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -25,6 +25,11 @@ demo: setup
 
 bench-render: setup
 	$(PY) -m training.bench_render --out bench/render.md
+
+# Blender extension zips (one per platform) in dist/, validated and smoke-tested; wheels are
+# downloaded from PyPI into build/wheels/ (git-ignored) on first use.
+extension: setup
+	$(PY) tools/build_extension.py
 
 clean:
 	rm -rf out build dist .pytest_cache
