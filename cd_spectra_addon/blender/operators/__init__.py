@@ -1,0 +1,28 @@
+"""Operators, one per file; registered together in a fixed order and removed in reverse."""
+
+from __future__ import annotations
+
+from ..registration import register_classes, unregister_classes
+from .apply_to_light import CDSPECTRA_OT_apply_to_light
+from .calibrate import CDSPECTRA_OT_calibrate
+from .create_light import CDSPECTRA_OT_create_light
+from .estimate_spd import CDSPECTRA_OT_estimate_spd
+from .export_spd import CDSPECTRA_OT_export_spd
+from .load_reference_spd import CDSPECTRA_OT_load_reference_spd
+
+classes = (
+    CDSPECTRA_OT_estimate_spd,
+    CDSPECTRA_OT_create_light,
+    CDSPECTRA_OT_apply_to_light,
+    CDSPECTRA_OT_export_spd,
+    CDSPECTRA_OT_load_reference_spd,
+    CDSPECTRA_OT_calibrate,
+)
+
+
+def register() -> None:
+    register_classes(classes)
+
+
+def unregister() -> None:
+    unregister_classes(classes)

@@ -1,0 +1,100 @@
+"""Estimate the lamp's SPD from a photo of a CD (the add-on's main button)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import bpy
+from bpy.props import EnumProperty, StringProperty
+
+from ...core.errors import CDSpectraError
+from .. import state
+from ..node_group import ensure_node_group, spectral_colour
+from ..progress import progress
+from ..properties import (
+    DEFAULT_PRESET,
+    PHOTO_FILTER_GLOB,
+    calibration_items,
+    camera_items,
+    preset_items,
+    stable_number,
+)
+from ...core.cameras import DEFAULT_CAMERA
+
+_CHOICES = ("preset", "camera", "calibration")
+
+
+class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
+    """Recover the lamp's spectrum from the photo of the CD"""
+
+    bl_idname = "cd_spectra.estimate_spd"
+    bl_label = "Estimate SPD"
+    bl_options = {"REGISTER", "UNDO"}
+
+    filepath: StringProperty(name="Photo", subtype="FILE_PATH", options={"SKIP_SAVE"})
+    filter_glob: StringProperty(default=PHOTO_FILTER_GLOB, options={"HIDDEN"})
+    preset: EnumProperty(name="Capture", items=preset_items, default=stable_number(DEFAULT_PRESET))
+    camera: EnumProperty(name="Camera", items=camera_items, default=stable_number(DEFAULT_CAMERA))
+    calibration: EnumProperty(name="Calibration", items=calibration_items, default=0)
+
+    def _take_unset_choices_from(self, settings: Any) -> None:
+        for name in _CHOICES:
+            if not self.properties.is_property_set(name) and getattr(settings, name):
+                setattr(self, name, getattr(settings, name))
+
+    def invoke(self, context: bpy.types.Context, event: Any) -> set[str]:
+        settings = context.scene.cd_spectra
+        self._take_unset_choices_from(settings)
+        if not self.filepath:
+            self.filepath = settings.photo_path
+        if not self.filepath:
+            context.window_manager.fileselect_add(self)
+            return {"RUNNING_MODAL"}
+        return self.execute(context)
+
+    def execute(self, context: bpy.types.Context) -> set[str]:
+        settings = context.scene.cd_spectra
+        self._take_unset_choices_from(settings)
+        path = bpy.path.abspath(self.filepath or settings.photo_path)
+        if not path:
+            self.report({"ERROR"}, "Choose a photo of the CD first")
+            return {"CANCELLED"}
+        try:
+            from ...core.estimate import estimate_photo
+        except ImportError as exc:
+            self.report({"ERROR"}, f"This build of CD Spectra has no estimator ({exc})")
+            return {"CANCELLED"}
+        space = state.working_space()
+        with progress(context) as update:
+            try:
+                update(0.0, "reading the photo")
+                estimate = estimate_photo(
+                    path,
+                    preset=self.preset or DEFAULT_PRESET,
+                    camera=state.camera_choice(self.camera),
+                    calibration=state.calibration_choice(self.calibration),
+                    working_space=space,
+                    progress=update,
+                )
+                data = estimate.to_json()
+                spd = state.valid_spd(data.get("spd", ()))
+                if spd is None:
+                    raise CDSpectraError("the estimate is not a usable spectrum (empty or not finite)")
+                info = spectral_colour(spd, space)
+            except CDSpectraError as exc:
+                self.report({"ERROR"}, str(exc))
+                return {"CANCELLED"}
+            except ValueError as exc:  # colour conversion refused the SPD
+                self.report({"ERROR"}, f"Cannot use this estimate: {exc}")
+                return {"CANCELLED"}
+            update(0.95, "building the spectral node group")
+            group = ensure_node_group(spd, info, state.estimate_meta(data))
+        state.store_estimate(settings, data)
+        settings.node_group = group
+        settings.photo_path = self.filepath or settings.photo_path
+        for name in _CHOICES:
+            if getattr(self, name):
+                setattr(settings, name, getattr(self, name))
+        cct = f"{info.cct_k:.0f} K" if info.cct_k else f"xy {info.xy[0]:.4f}, {info.xy[1]:.4f}"
+        self.report({"INFO"}, f"Estimated {cct}, confidence {float(data.get('confidence', 0)):.0%}")
+        return {"FINISHED"}

@@ -1,0 +1,184 @@
+"""Sidebar: View3D › Sidebar › CD Spectra. Every ``draw`` works with and without an estimate.
+
+Draw code only reads: node groups and lights are made by operators (Blender forbids writing
+data-blocks while drawing).
+"""
+
+from __future__ import annotations
+
+import textwrap
+from typing import Any
+
+import bpy
+
+from . import state
+from .node_group import curve_node
+from .registration import register_classes, unregister_classes
+
+CATEGORY = "CD Spectra"
+
+
+def _settings(context: bpy.types.Context) -> Any:
+    return getattr(context.scene, "cd_spectra", None)
+
+
+def _wrapped(layout: bpy.types.UILayout, context: bpy.types.Context, text: str, icon: str = "NONE") -> None:
+    """Labels do not wrap: split long text to the sidebar's width."""
+    region = getattr(context, "region", None)
+    width = max(24, int((region.width if region is not None else 300) / 7))
+    for i, line in enumerate(textwrap.wrap(text, width) or [""]):
+        layout.label(text=line, icon=icon if i == 0 else "BLANK1")
+
+
+def _fmt(value: Any, spec: str, unit: str = "") -> str:
+    return "—" if value is None else f"{format(value, spec)}{unit}"
+
+
+class _SidebarPanel:
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = CATEGORY
+
+
+class CDSPECTRA_PT_main(_SidebarPanel, bpy.types.Panel):
+    bl_idname = "CDSPECTRA_PT_main"
+    bl_label = "CD Spectra"
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            layout.label(text="Add-on settings missing: re-enable CD Spectra", icon="ERROR")
+            return
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(settings, "photo_path")
+        col.prop(settings, "preset")
+        col.prop(settings, "camera")
+        col.prop(settings, "calibration")
+        row = layout.row()
+        row.scale_y = 1.4
+        op = row.operator("cd_spectra.estimate_spd", icon="LIGHT")
+        op.filepath = settings.photo_path
+
+
+class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):
+    bl_idname = "CDSPECTRA_PT_result"
+    bl_label = "Result"
+    bl_parent_id = "CDSPECTRA_PT_main"
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        data = state.last_estimate(settings) if settings is not None else None
+        if data is None:
+            _wrapped(layout, context, "No estimate yet: choose a photo and press Estimate SPD.", "INFO")
+            return
+        node = curve_node(settings.node_group)
+        if node is not None:
+            layout.label(text="Relative power, 380–780 nm")
+            layout.template_curve_mapping(node, "mapping")
+        else:
+            _wrapped(layout, context, "The spectrum's node group was deleted: press Estimate SPD again "
+                     "to redraw the curve.", "ERROR")
+
+        grid = layout.grid_flow(row_major=True, columns=2, even_columns=True, align=True)
+        xy = data.get("xy") or [None, None]
+        for label, value in (
+            ("CCT", _fmt(data.get("cct_k"), ".0f", " K")),
+            ("Duv", _fmt(data.get("duv"), "+.4f")),
+            ("x", _fmt(xy[0], ".4f")),
+            ("y", _fmt(xy[1], ".4f")),
+            ("Confidence", _fmt(data.get("confidence"), ".0%")),
+            ("Camera", str(data.get("camera") or "—")),
+        ):
+            grid.label(text=label)
+            grid.label(text=value)
+        if data.get("cct_k") is None:
+            _wrapped(layout, context, "Too far from white light for a colour temperature.", "INFO")
+        warnings = list(data.get("warnings") or [])
+        if warnings:
+            box = layout.box()
+            for warning in warnings:
+                _wrapped(box, context, str(warning), "ERROR")
+
+        layout.separator()
+        row = layout.row(align=True)
+        row.prop(settings, "light_type", text="")
+        op = row.operator("cd_spectra.create_light", icon="ADD")
+        op.light_type = settings.light_type
+        layout.operator("cd_spectra.apply_to_light", icon="LIGHT_DATA")
+        layout.operator("cd_spectra.export_spd", icon="EXPORT")
+
+
+class CDSPECTRA_PT_compare(_SidebarPanel, bpy.types.Panel):
+    bl_idname = "CDSPECTRA_PT_compare"
+    bl_label = "Compare with Reference"
+    bl_parent_id = "CDSPECTRA_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            return
+        layout.operator("cd_spectra.load_reference_spd", icon="IMPORT")
+        ref = state.reference(settings)
+        if ref is None:
+            _wrapped(layout, context, "Load a measured spectrum (CSV, JSON, TM-27-14) to see how close "
+                     "the estimate is.", "INFO")
+            return
+        layout.label(text=f"Reference: {ref.get('name', '')}")
+        metrics = ref.get("metrics") or {}
+        if state.last_estimate(settings) is None or not metrics:
+            layout.label(text="Estimate an SPD to compare", icon="INFO")
+        else:
+            grid = layout.grid_flow(row_major=True, columns=2, even_columns=True, align=True)
+            for key, value in metrics.items():
+                grid.label(text=key.replace("_", " "))
+                grid.label(text=f"{value:.4f}")
+        for title, group in (("Estimate", settings.node_group), ("Reference", settings.reference_node_group)):
+            node = curve_node(group)
+            if node is not None:
+                layout.label(text=title)
+                layout.template_curve_mapping(node, "mapping")
+
+
+class CDSPECTRA_PT_calibrate(_SidebarPanel, bpy.types.Panel):
+    bl_idname = "CDSPECTRA_PT_calibrate"
+    bl_label = "Calibrate"
+    bl_parent_id = "CDSPECTRA_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            return
+        _wrapped(layout, context, "Photograph the CD once under a lamp of known spectrum, with the same "
+                 "camera and set-up: later estimates with this profile are more accurate.")
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(settings, "calibration_photo")
+        col.prop(settings, "calibration_lamp")
+        if settings.calibration_lamp == "FILE":
+            col.prop(settings, "calibration_spd_path")
+        col.prop(settings, "calibration_name")
+        op = layout.operator("cd_spectra.calibrate", icon="CHECKMARK")
+        op.filepath = settings.calibration_photo
+        op.lamp = settings.calibration_lamp
+        op.spd_path = settings.calibration_spd_path
+        op.profile_name = settings.calibration_name
+
+
+classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_result, CDSPECTRA_PT_compare, CDSPECTRA_PT_calibrate)
+
+
+def register() -> None:
+    register_classes(classes)
+
+
+def unregister() -> None:
+    unregister_classes(classes)

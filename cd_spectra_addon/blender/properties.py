@@ -1,0 +1,162 @@
+"""Scene settings of the add-on (``scene.cd_spectra``) and the choices its menus offer.
+
+Capture presets, cameras and calibration profiles come from the core at draw time (dynamic
+enums), so registering reads no files. Dynamic enum items carry a number derived from the
+identifier's CRC-32: a .blend saved with one camera list reopens on the same camera when a later
+version adds cameras (plain indices would shift).
+"""
+
+from __future__ import annotations
+
+import zlib
+from typing import Any
+
+import bpy
+from bpy.props import (
+    EnumProperty,
+    FloatVectorProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+from ..core.cameras import DEFAULT_CAMERA
+
+DEFAULT_PRESET = "cd-default"  # = training/render_photo.py's default (tested)
+GENERIC_CAMERA = "generic"
+NO_CALIBRATION = "NONE"
+SPD_SHAPE = (3, 27)  # 81 bands: Blender vector properties allow at most 32 per dimension
+
+PHOTO_FILTER_GLOB = "*.jpg;*.jpeg;*.png;*.tif;*.tiff;*.exr"
+SPECTRA_FILTER_GLOB = "*.csv;*.tsv;*.txt;*.json;*.spd;*.xml;*.spdx"
+
+LIGHT_TYPES = [
+    ("SPOT", "Spot", "Spot light (the usual lamp on a stand)", "LIGHT_SPOT", 0),
+    ("AREA", "Area", "Area light (panels, softboxes)", "LIGHT_AREA", 1),
+    ("POINT", "Point", "Point light (bare bulbs)", "LIGHT_POINT", 2),
+    ("SUN", "Sun", "Sun light (daylight, far sources)", "LIGHT_SUN", 3),
+]
+
+REFERENCE_LAMPS = [
+    ("CIE_A", "Household bulb (CIE A)",
+     "Incandescent or halogen bulb: close to CIE illuminant A (2856 K)", 0),
+    ("D50", "Daylight D50", "Direct sun low in the sky / horizon light (5003 K)", 1),
+    ("D55", "Daylight D55", "Direct midday sun (5503 K)", 2),
+    ("D65", "Daylight D65", "Overcast daylight (6504 K)", 3),
+    ("FILE", "Spectrum file", "A spectrum measured by a meter (CSV, JSON, TM-27-14 XML)", 4),
+]
+
+# Blender keeps only pointers to enum item strings: the lists must stay alive in Python.
+_ITEMS: dict[str, list[tuple[str, str, str, int]]] = {}
+
+
+def stable_number(identifier: str) -> int:
+    """Enum item number that does not depend on the item's position in the list."""
+    return zlib.crc32(identifier.encode("utf-8")) & 0x7FFFFFFF
+
+
+def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
+    if "preset" not in _ITEMS:
+        from ..core.capture import load_preset, preset_names
+
+        items = []
+        for name in preset_names():
+            try:
+                description = load_preset(name).description or name
+            except ValueError:
+                continue
+            items.append((name, name, description, stable_number(name)))
+        _ITEMS["preset"] = items
+    return _ITEMS["preset"]
+
+
+def camera_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
+    if "camera" not in _ITEMS:
+        from ..core.cameras import camera_names
+
+        names = camera_names()
+        items = [(DEFAULT_CAMERA, DEFAULT_CAMERA.replace("_", " "), "Default camera profile",
+                  stable_number(DEFAULT_CAMERA)),
+                 (GENERIC_CAMERA, "Generic camera", "Your camera is not listed: a typical camera's "
+                  "sensitivities (less accurate; a calibration shot helps most here)",
+                  stable_number(GENERIC_CAMERA))]
+        items += [(n, n.replace("_", " "), f"Spectral sensitivities of the {n.replace('_', ' ')}",
+                   stable_number(n)) for n in names if n != DEFAULT_CAMERA]
+        _ITEMS["camera"] = items
+    return _ITEMS["camera"]
+
+
+def calibration_names() -> list[str]:
+    """Saved calibration profiles (none until the estimator's calibration module is present)."""
+    try:
+        from ..core.calibration import list_calibrations
+    except ImportError:
+        return []
+    names = []
+    for entry in list_calibrations():
+        names.append(str(getattr(entry, "name", entry)))
+    return names
+
+
+def calibration_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
+    items = [(NO_CALIBRATION, "None", "No calibration profile", 0)]
+    items += [(n, n, f"Calibration profile {n}", stable_number(n) or 1) for n in calibration_names()]
+    _ITEMS["calibration"] = items  # replaced on every call, kept alive until the next
+    return items
+
+
+class CDSpectraSettings(bpy.types.PropertyGroup):
+    """Everything the sidebar shows; saved in the .blend with the scene."""
+
+    photo_path: StringProperty(
+        name="Photo", subtype="FILE_PATH",
+        description="Photo of a CD lit by the lamp, lamp and camera on the disc's axis "
+                    "(JPEG, PNG, TIFF or EXR)")
+    preset: EnumProperty(
+        name="Capture", items=preset_items, default=stable_number(DEFAULT_PRESET),
+        description="How the photo was taken (disc, distances)")
+    camera: EnumProperty(
+        name="Camera", items=camera_items, default=stable_number(DEFAULT_CAMERA),
+        description="Camera that took the photo (its colour sensitivities)")
+    calibration: EnumProperty(
+        name="Calibration", items=calibration_items, default=0,
+        description="Profile from a photo of a known lamp taken with the same camera and disc")
+    light_type: EnumProperty(name="Light", items=LIGHT_TYPES, default="SPOT",
+                             description="Type of light to create")
+
+    estimate_json: StringProperty(
+        name="Last estimate", options={"HIDDEN"},
+        description="The last estimate as JSON (what the command line prints)")
+    spd: FloatVectorProperty(
+        name="SPD", size=SPD_SHAPE, min=0.0, options={"HIDDEN"},
+        description="Last estimated SPD, 380–780 nm in 5 nm steps, row by row (27 bands a row)")
+    node_group: PointerProperty(name="Spectral light", type=bpy.types.NodeTree,
+                                description="Node group holding the last estimated SPD")
+
+    reference_path: StringProperty(name="Reference", subtype="FILE_PATH",
+                                   description="Spectrum file to compare the estimate with")
+    reference_json: StringProperty(name="Reference spectrum", options={"HIDDEN"})
+    reference_node_group: PointerProperty(name="Reference curve", type=bpy.types.NodeTree)
+
+    calibration_photo: StringProperty(
+        name="Photo of known lamp", subtype="FILE_PATH",
+        description="Photo of the CD under a lamp whose spectrum is known, same camera and set-up")
+    calibration_lamp: EnumProperty(name="Known lamp", items=REFERENCE_LAMPS, default="CIE_A")
+    calibration_spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH",
+                                         description="The lamp's spectrum as measured by a meter")
+    calibration_name: StringProperty(name="Profile name", default="my-camera",
+                                      description="Name to save the calibration profile under")
+
+
+def register() -> None:
+    bpy.utils.register_class(CDSpectraSettings)
+    try:
+        bpy.types.Scene.cd_spectra = PointerProperty(type=CDSpectraSettings)
+    except Exception:
+        bpy.utils.unregister_class(CDSpectraSettings)
+        raise
+
+
+def unregister() -> None:
+    del bpy.types.Scene.cd_spectra
+    bpy.utils.unregister_class(CDSpectraSettings)
+    _ITEMS.clear()

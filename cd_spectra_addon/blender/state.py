@@ -1,0 +1,121 @@
+"""Reading and writing the add-on's state in the scene: the last estimate and the reference."""
+
+from __future__ import annotations
+
+import json
+import math
+from functools import lru_cache
+from typing import Any
+
+import bpy
+
+from ..core.spectral_grid import N_BANDS
+from .properties import GENERIC_CAMERA, NO_CALIBRATION, SPD_SHAPE
+
+DEFAULT_WORKING_SPACE = "Linear Rec.709"
+
+
+def working_space() -> str:
+    """The scene-linear space light colours are given in.
+
+    Blender 4.x is always Linear Rec.709; Blender 5 has a per-file working space setting
+    (``bpy.data.colorspace.working_space``), followed where present.
+    """
+    colorspace = getattr(bpy.data, "colorspace", None)
+    name = getattr(colorspace, "working_space", None) if colorspace is not None else None
+    return str(name) if name else DEFAULT_WORKING_SPACE
+
+
+@lru_cache(maxsize=8)
+def _parse(text: str) -> dict[str, Any] | None:
+    if not text:
+        return None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError:
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def valid_spd(values: Any) -> list[float] | None:
+    """The SPD as 81 finite, non-negative floats with a positive peak, or None."""
+    try:
+        spd = [float(v) for v in values]
+    except (TypeError, ValueError):
+        return None
+    if len(spd) != N_BANDS or not all(math.isfinite(v) and v >= 0.0 for v in spd) or max(spd) <= 0:
+        return None
+    return spd
+
+
+def last_estimate(settings: Any) -> dict[str, Any] | None:
+    """The last estimate's JSON (as the CLI prints it), or None if there is none or it is broken."""
+    data = _parse(settings.estimate_json)
+    if data is None or valid_spd(data.get("spd", ())) is None:
+        return None
+    return data
+
+
+def store_estimate(settings: Any, data: dict[str, Any]) -> None:
+    spd = valid_spd(data["spd"])
+    if spd is None:
+        raise ValueError("estimate without a valid SPD")
+    settings.estimate_json = json.dumps(data)
+    rows, cols = SPD_SHAPE
+    settings.spd = [spd[r * cols:(r + 1) * cols] for r in range(rows)]
+
+
+def spd_from_settings(settings: Any) -> list[float]:
+    """The float vector property flattened back to 81 values."""
+    return [float(v) for row in settings.spd for v in row]
+
+
+def reference(settings: Any) -> dict[str, Any] | None:
+    """The loaded reference spectrum ({name, spd, path, metrics}) or None."""
+    data = _parse(settings.reference_json)
+    if data is None or valid_spd(data.get("spd", ())) is None:
+        return None
+    return data
+
+
+def camera_choice(value: str) -> str:
+    """Enum value → the camera name the core expects (empty = an item that no longer exists)."""
+    from ..core.cameras import DEFAULT_CAMERA
+
+    return value or DEFAULT_CAMERA
+
+
+def calibration_choice(value: str) -> str | None:
+    return None if value in ("", NO_CALIBRATION) else value
+
+
+__all__ = [
+    "DEFAULT_WORKING_SPACE",
+    "GENERIC_CAMERA",
+    "working_space",
+    "valid_spd",
+    "last_estimate",
+    "store_estimate",
+    "spd_from_settings",
+    "reference",
+    "camera_choice",
+    "calibration_choice",
+]
+
+
+def estimate_meta(data: dict[str, Any]) -> dict[str, Any]:
+    """What a light or node group records about the estimate it came from."""
+    import os
+
+    source = str(data.get("source") or "")
+    return {
+        "kind": "estimate",
+        "name": "CD Spectra",
+        "source": source,
+        "photo": os.path.basename(source),
+        "model_version": data.get("model_version"),
+        "preset": data.get("preset"),
+        "camera": data.get("camera"),
+        "calibration": data.get("calibration"),
+        "confidence": data.get("confidence"),
+    }
