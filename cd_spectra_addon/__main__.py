@@ -1,0 +1,172 @@
+"""Headless command line: estimate SPDs from CD photos without opening Blender.
+
+    python -m cd_spectra_addon estimate PHOTO... [--preset NAME] [--camera NAME]
+        [--calibration NAME] [--json OUT.json] [--blend OUT.blend]
+
+Prints one JSON object per photo (``Estimate.to_json()``), one per line, in the order given.
+``--json`` writes the same objects as a JSON array; ``--blend`` saves a Blender scene with one
+matched spot light per photo (bpy is imported only then). Output files appear whole or not at
+all (written to a temporary file, then renamed). Bad input exits with status 2 and a single
+``error: ...`` line on stderr, and writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import sys
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from .core.cameras import DEFAULT_CAMERA
+
+DEFAULT_PRESET = "cd-default"  # training/render_photo.py's default (a test keeps them equal)
+EXIT_BAD_INPUT = 2
+
+
+class UsageError(Exception):
+    """Bad input: reported as one ``error:`` line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # argparse would print the usage too
+        raise UsageError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m cd_spectra_addon", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    est = sub.add_parser("estimate", help="estimate the lamp's SPD from photos of a CD")
+    est.add_argument("photos", nargs="+", type=Path, metavar="PHOTO", help="JPEG, PNG, TIFF or EXR")
+    est.add_argument("--preset", default=DEFAULT_PRESET, help=f"capture preset (default {DEFAULT_PRESET})")
+    est.add_argument("--camera", default=DEFAULT_CAMERA, help=f"camera profile (default {DEFAULT_CAMERA})")
+    est.add_argument("--calibration", default=None, help="calibration profile name")
+    est.add_argument("--json", type=Path, metavar="OUT", help="also write the results as a JSON array")
+    est.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")
+    return parser
+
+
+def _check_output(path: Path | None, suffix: str | None = None) -> None:
+    if path is None:
+        return
+    if suffix and path.suffix.lower() != suffix:
+        raise UsageError(f"{path} should end in {suffix}")
+    if not path.parent.resolve().is_dir():
+        raise UsageError(f"folder {path.parent} does not exist")
+    if path.is_dir():
+        raise UsageError(f"{path} is a folder")
+
+
+@contextlib.contextmanager
+def _atomic_path(target: Path) -> Iterator[Path]:
+    """A temporary path next to ``target``, renamed onto it only if the block succeeds."""
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _quiet_fds() -> Iterator[None]:
+    """Silence Blender's C-level prints (they would mix with the JSON on stdout)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
+def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
+    try:
+        from .core.estimate import estimate_photo
+    except ImportError as exc:
+        raise UsageError(f"this build has no estimator ({exc})") from exc
+    results = []
+    for photo in args.photos:
+        if not photo.is_file():
+            raise UsageError(f"{photo}: no such file")
+        try:
+            estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
+                                      calibration=args.calibration)
+        except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
+            raise UsageError(f"{photo}: {exc}") from exc
+        results.append(estimate.to_json())
+    return results
+
+
+def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
+    """A scene with one matched spot light per estimate, 1 m apart, 2 m up, pointing down."""
+    with _quiet_fds():
+        import bpy
+
+        from .blender import properties, state
+        from .blender.light import create_light
+        from .blender.node_group import spectral_colour
+
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        space = state.working_space()
+        properties.register()
+        try:
+            scene = bpy.context.scene
+            for i, data in enumerate(results):
+                spd = state.valid_spd(data.get("spd", ()))
+                if spd is None:
+                    raise UsageError(f"{data.get('source')}: the estimate is not a usable spectrum")
+                try:
+                    info = spectral_colour(spd, space)
+                except ValueError as exc:
+                    raise UsageError(f"{data.get('source')}: {exc}") from exc
+                obj = create_light(scene.collection, spd, info, state.estimate_meta(data), "SPOT",
+                                   (float(i), 0.0, 2.0))
+                settings = scene.cd_spectra
+                state.store_estimate(settings, data)
+                settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
+                settings.photo_path = str(data.get("source") or "")
+            with _atomic_path(path) as tmp:
+                bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+        finally:
+            properties.unregister()
+
+
+def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print) -> int:
+    args = build_parser().parse_args(argv)
+    _check_output(args.json)
+    _check_output(args.blend, ".blend")
+    results = _estimate_all(args)
+    if args.blend is not None:
+        write_blend(results, args.blend)
+    if args.json is not None:
+        with _atomic_path(args.json) as tmp:
+            tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+    for data in results:
+        out(json.dumps(data))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        return run(argv)
+    except UsageError as exc:
+        message = " ".join(str(exc).split())  # exactly one line
+        print(f"error: {message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())
