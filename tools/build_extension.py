@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import shutil
 import subprocess
@@ -140,19 +139,19 @@ def manifest_with_wheels(text: str, wheel_names: list[str]) -> str:
     return new
 
 
-def stage(per_platform: dict[str, list[Path]]) -> Path:
-    if STAGE.exists():
-        shutil.rmtree(STAGE)
-    STAGE.mkdir(parents=True)
+def stage(per_platform: dict[str, list[Path]], where: Path = STAGE) -> Path:
+    if where.exists():
+        shutil.rmtree(where)
+    where.mkdir(parents=True)
     skip_top = {"build", "dist", "wheels", "data", "out", ".venv", "training", "tests", "bench", "tools"}
     for src in source_files():
         rel = src.relative_to(ROOT)
         if rel.parts[0] in skip_top:
             continue
-        dst = STAGE / rel
+        dst = where / rel
         dst.parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(src, dst)
-    wheel_dir = STAGE / "wheels"
+    wheel_dir = where / "wheels"
     wheel_dir.mkdir()
     names = set()
     for wheels in per_platform.values():
@@ -160,8 +159,8 @@ def stage(per_platform: dict[str, list[Path]]) -> Path:
             shutil.copy2(wheel, wheel_dir / wheel.name)
             names.add(wheel.name)
     text = manifest_with_wheels(MANIFEST.read_text(encoding="utf-8"), sorted(names))
-    (STAGE / MANIFEST.name).write_text(text, encoding="utf-8")
-    return STAGE
+    (where / MANIFEST.name).write_text(text, encoding="utf-8")
+    return where
 
 
 def check_version() -> str:
@@ -239,25 +238,21 @@ def smoke_test(zip_path: Path) -> dict[str, object]:
         return json.loads(result.stdout.strip().splitlines()[-1])
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--dist", type=Path, default=ROOT / "dist", help="where the zips go")
-    p.add_argument("--offline", action="store_true", help="use only wheels already in build/wheels/")
-    p.add_argument("--skip-smoke-test", action="store_true")
-    args = p.parse_args(argv)
-
+def build(dist: Path, stage_dir: Path = STAGE, *, wheels: bool = True, offline: bool = False,
+          smoke: bool = True) -> dict[str, object]:
+    """Build, validate and (with wheels, on a known platform) smoke-test; return a report."""
     start = time.perf_counter()
     version = check_version()
     script = blender_ext_script()
-    per_platform = download_wheels(args.offline)
+    per_platform = download_wheels(offline) if wheels else {p.blender: [] for p in PLATFORMS}
     t_download = time.perf_counter() - start
-    source = stage(per_platform)
+    source = stage(per_platform, stage_dir)
     run_tool(script, "validate", str(source))
-    args.dist.mkdir(parents=True, exist_ok=True)
-    for old in args.dist.glob(f"cd_spectra-{version}-*.zip"):
+    dist.mkdir(parents=True, exist_ok=True)
+    for old in dist.glob(f"cd_spectra-{version}-*.zip"):
         old.unlink()
-    run_tool(script, "build", "--split-platforms", "--source-dir", str(source), "--output-dir", str(args.dist))
-    zips = sorted(args.dist.glob(f"cd_spectra-{version}-*.zip"))
+    run_tool(script, "build", "--split-platforms", "--source-dir", str(source), "--output-dir", str(dist))
+    zips = sorted(dist.glob(f"cd_spectra-{version}-*.zip"))
     expected = {f"cd_spectra-{version}-{p.blender.replace('-', '_')}.zip" for p in PLATFORMS}
     if {z.name for z in zips} != expected:
         raise SystemExit(f"error: expected {sorted(expected)}, built {[z.name for z in zips]}")
@@ -267,13 +262,31 @@ def main(argv: list[str] | None = None) -> int:
             bad = [n for n in zf.namelist() if n.startswith("wheels/") and not wheel_name_ok(n[7:])]
             if bad:
                 raise SystemExit(f"error: {z.name} bundles {bad}")
-    report = {"version": version, "download_s": round(t_download, 1), "zips": {}}
-    for z in zips:
-        report["zips"][z.name] = {"bytes": z.stat().st_size, "mb": round(z.stat().st_size / 1e6, 2)}
+    report: dict[str, object] = {
+        "version": version,
+        "download_s": round(t_download, 1),
+        "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in zips},
+    }
     here = this_platform()
-    if here and not args.skip_smoke_test:
-        report["smoke_test"] = smoke_test(args.dist / f"cd_spectra-{version}-{here.replace('-', '_')}.zip")
+    if here:
+        report["this_platform_zip"] = str(dist / f"cd_spectra-{version}-{here.replace('-', '_')}.zip")
+        if smoke and wheels:
+            report["smoke_test"] = smoke_test(Path(str(report["this_platform_zip"])))
     report["build_s"] = round(time.perf_counter() - start, 1)
+    return report
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--dist", type=Path, default=ROOT / "dist", help="where the zips go")
+    p.add_argument("--offline", action="store_true", help="use only wheels already in build/wheels/")
+    p.add_argument("--skip-smoke-test", action="store_true")
+    p.add_argument("--no-wheels", action="store_true",
+                   help="leave the wheels out (tests: the dependencies come from the venv)")
+    p.add_argument("--stage", type=Path, default=STAGE, help="where the build copy is made")
+    args = p.parse_args(argv)
+    report = build(args.dist, args.stage, wheels=not args.no_wheels, offline=args.offline,
+                   smoke=not args.skip_smoke_test)
     print(json.dumps(report, indent=2))
     return 0
 
