@@ -10,6 +10,8 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
+import types
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -498,3 +500,121 @@ def test_draw_check_catches_a_broken_panel(installed_addon: Installed) -> None:
     proc = run_blender_script(script, str(installed_addon.repo_dir), ADDON_MODULE, "empty", TESTS_DIR)
     assert "property not found" in proc.stdout + proc.stderr
 
+
+
+# --- operators that call the core (a fake estimator stands in for the model) ------------------
+
+
+def _fake_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, fail: str | None = None) -> list:
+    """Put a fake ``core.estimate`` into the installed add-on; returns the calls it got."""
+    result_mod = addon.sub("cd_spectra_addon.core.result")
+    errors = addon.sub("cd_spectra_addon.core.errors")
+    calls: list = []
+
+    def estimate_photo(path: str, *, preset: str = "cd-default", camera: str = "", calibration=None,
+                       working_space: str = "Linear Rec.709", progress=None):
+        if progress is not None:
+            progress(0.5, "fitting the spectrum")
+        calls.append((path, preset, camera, calibration, working_space))
+        if fail:
+            raise errors.PhotoError(fail)
+        return result_mod.Estimate(
+            spd=np.array(blackbody_spd(3300.0)), spd_std=np.full(81, 0.02), xy=(0.42, 0.40), cct_k=3300.0,
+            duv=0.0, rgb_scene_linear=(1.0, 0.6, 0.3), confidence=0.7, warnings=["A warning."],
+            disc=result_mod.DiscFit((100.0, 100.0), 90.0), timing_ms={"total": 5.0}, source=path,
+            preset=preset, camera=camera, calibration=calibration, model_version="fake-1")
+
+    module = types.ModuleType(f"{ADDON_MODULE}.cd_spectra_addon.core.estimate")
+    module.estimate_photo = estimate_photo
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    return calls
+
+
+@needs_colour
+def test_estimate_stores_the_result_and_its_curve(addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                                  tmp_path: Path) -> None:
+    calls = _fake_estimator(addon, monkeypatch)
+    photo = tmp_path / "cd.jpg"
+    photo.write_bytes(b"jpeg")
+    settings = bpy.context.scene.cd_spectra
+    settings.camera = "Nikon_D5100"
+    assert bpy.ops.cd_spectra.estimate_spd(filepath=str(photo)) == {"FINISHED"}
+    assert calls == [(str(photo), "cd-default", "Nikon_D5100", None, "Linear Rec.709")]
+    state = addon.sub("cd_spectra_addon.blender.state")
+    data = state.last_estimate(settings)
+    assert data["model_version"] == "fake-1" and data["spd"] == pytest.approx(blackbody_spd(3300.0))
+    assert state.spd_from_settings(settings) == pytest.approx(blackbody_spd(3300.0), abs=1e-6)
+    assert settings.photo_path == str(photo)
+    group = settings.node_group
+    assert group is not None and group["cd_spectra_model_version"] == "fake-1"
+    assert bpy.ops.cd_spectra.estimate_spd(filepath=str(photo)) == {"FINISHED"}
+    assert len(bpy.data.node_groups) == 1  # the same SPD again: the group is reused
+    assert bpy.ops.cd_spectra.create_light() == {"FINISHED"}
+    assert bpy.context.object.data["cd_spectra_photo"] == "cd.jpg"
+
+
+def test_estimator_error_is_reported_and_changes_nothing(addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                                        tmp_path: Path) -> None:
+    _fake_estimator(addon, monkeypatch, fail="The photo is over-exposed: take it with a shorter exposure.")
+    photo = tmp_path / "cd.jpg"
+    photo.write_bytes(b"jpeg")
+    before = scene_snapshot()
+    with pytest.raises(RuntimeError, match="over-exposed"):
+        bpy.ops.cd_spectra.estimate_spd(filepath=str(photo))
+    assert scene_snapshot() == before
+    assert bpy.context.scene.cd_spectra.photo_path == ""
+
+
+@needs_colour
+def test_reference_spd_is_compared_with_the_estimate(addon: Installed, tmp_path: Path) -> None:
+    _store(addon, fake_estimate(blackbody_spd(2856.0)))
+    csv = tmp_path / "meter.csv"
+    rows = [f"{380 + i},{v}" for i, v in enumerate(np.interp(np.arange(380, 781), np.arange(380, 781, 5),
+                                                           blackbody_spd(2900.0)))]
+    csv.write_text("wavelength,halogen\n" + "\n".join(rows) + "\n")
+    assert bpy.ops.cd_spectra.load_reference_spd(filepath=str(csv)) == {"FINISHED"}
+    settings = bpy.context.scene.cd_spectra
+    ref = json.loads(settings.reference_json)
+    assert ref["name"] == "halogen"
+    assert 0 < ref["metrics"]["mae_400_700"] < 0.05
+    assert 0 < ref["metrics"]["delta_uv_prime"] < 0.01
+    assert settings.reference_node_group["cd_spectra_kind"] == "reference"
+    assert len(bpy.data.node_groups) == 1  # the reference's group; the estimate made none here
+
+
+def test_unreadable_reference_changes_nothing(addon: Installed, tmp_path: Path) -> None:
+    bad = tmp_path / "notes.csv"
+    bad.write_text("hello\nworld\n")
+    before = scene_snapshot()
+    with pytest.raises(RuntimeError, match="as a reference"):
+        bpy.ops.cd_spectra.load_reference_spd(filepath=str(bad))
+    assert scene_snapshot() == before
+
+
+def test_export_writes_whole_files_only(addon: Installed, tmp_path: Path) -> None:
+    formats = addon.sub("cd_spectra_addon.blender.spectra_io").export_formats()
+    if not formats:
+        pytest.skip("core.spectra_files has no SPD writers yet")
+    _store(addon, fake_estimate(blackbody_spd(3000.0)))
+    for fmt in formats:
+        target = tmp_path / f"lamp{fmt.extension}"
+        assert bpy.ops.cd_spectra.export_spd(filepath=str(target), file_format=fmt.identifier) == {"FINISHED"}
+        assert target.is_file() and target.stat().st_size > 0
+    assert sorted(p.suffix for p in tmp_path.iterdir()) == sorted(f.extension for f in formats)
+
+
+def test_export_without_estimate_is_refused(addon: Installed, tmp_path: Path) -> None:
+    with pytest.raises(RuntimeError, match="Estimate an SPD first"):
+        bpy.ops.cd_spectra.export_spd(filepath=str(tmp_path / "x.csv"))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_calibrate_errors_change_nothing(addon: Installed, tmp_path: Path) -> None:
+    before = scene_snapshot()
+    with pytest.raises(RuntimeError):
+        bpy.ops.cd_spectra.calibrate(filepath="", profile_name="x")
+    with pytest.raises(RuntimeError):
+        bpy.ops.cd_spectra.calibrate(filepath=str(tmp_path / "missing.jpg"), lamp="FILE", spd_path="",
+                                     profile_name="x")
+    assert scene_snapshot() == before
+    assert bpy.context.scene.cd_spectra.calibration == "NONE"

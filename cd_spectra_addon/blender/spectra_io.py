@@ -67,11 +67,19 @@ def write_spd(fmt: ExportFormat, path: str | Path, spd: Sequence[float], meta: d
 
 
 def read_reference(path: str | Path) -> tuple[str, list[float]]:
-    """(name, SPD on the 81-band grid) of a spectrum file; ValueError with a reason if unreadable."""
-    from ..core.spectra_files import read_reference_spd
+    """(name, SPD on the 81-band grid) of a spectrum file; ValueError with a reason if unreadable.
 
-    name, spd = read_reference_spd(path)
-    return str(name), [float(v) for v in spd]
+    Uses the core's reader of every supported format where present, else its CSV table reader
+    (first spectrum of the table).
+    """
+    from ..core import spectra_files
+
+    reader = getattr(spectra_files, "read_reference_spd", None)
+    if reader is not None:
+        name, spd = reader(path)
+        return str(name), [float(v) for v in spd]
+    table = spectra_files.read_spectra_csv(path)
+    return table.names[0], [float(v) for v in table.on_grid()[0]]
 
 
 def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, float]:
