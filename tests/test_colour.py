@@ -302,6 +302,11 @@ class TestBehaviour:
         with pytest.raises(CDSpectraError, match=match):
             cc.spd_to_xyz(bad)
 
+    def test_planck_domain(self):
+        assert np.all(np.isfinite(cc.planck_uv1960([100.0, 1e9])))
+        with pytest.raises(ValueError, match="at least 100 K"):
+            cc.planck_uv1960(50.0)
+
     def test_bad_chromaticity(self):
         with pytest.raises(ValueError, match="no light"):
             cc.xyz_to_xy([0.0, 0.0, 0.0])

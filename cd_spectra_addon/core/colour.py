@@ -218,6 +218,8 @@ def planck_uv1960(cct: ArrayLike) -> NDArray[np.float64]:
     """
     t = _tables()
     temps = np.asarray(cct, dtype=np.float64)
+    if not np.all(np.isfinite(temps)) or np.any(temps < 100.0):
+        raise CDSpectraError("a Planckian temperature must be finite and at least 100 K")  # else 0/0
     lam = t.planck_wavelength_m
     radiance = lam**-5 / np.expm1(t.c2 / (lam * temps[..., None]))
     xyz = radiance @ t.cmf_planck
