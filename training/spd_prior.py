@@ -717,17 +717,20 @@ def _blue_pump(rng: Generator, m: int, lo: float, hi: float, fwhm: tuple[float, 
     """InGaN emission: Gaussian in energy with a red shoulder (band tail / indium fluctuation)."""
     peak = _u(rng, lo, hi, m)
     w = _u(rng, *fwhm, m)
-    shoulder = _u(rng, 0.05, 0.25, m)[:, None]
-    return _energy_band(peak, w) + shoulder * _energy_band(peak + _u(rng, 4.0, 12.0, m), w * _u(rng, 1.3, 2.0, m))
+    shoulder = _u(rng, 0.03, 0.15, m)[:, None]
+    return _energy_band(peak, w) + shoulder * _energy_band(peak + _u(rng, 4.0, 12.0, m), w * _u(rng, 1.2, 1.6, m))
 
 
 def _led_white_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
     pump = _blue_pump(rng, m, 440.0, 465.0, (15.0, 25.0))
-    # Green-yellow: YAG:Ce 545–580 nm (110–130 nm FWHM) or LuAG 515–545 nm (90–115 nm).
+    # Green-yellow: YAG:Ce 545–580 nm (105–130 nm FWHM) or LuAG 520–545 nm (90–115 nm).
     luag = rng.random(m) < 0.35
-    gpeak = np.where(luag, _u(rng, 515.0, 545.0, m), _u(rng, 545.0, 580.0, m))
+    gpeak = np.where(luag, _u(rng, 520.0, 545.0, m), _u(rng, 545.0, 580.0, m))
     gw = np.where(luag, _u(rng, 90.0, 115.0, m), _u(rng, 105.0, 130.0, m))
-    green = _energy_band(gpeak, gw)
+    # Ce³⁺ re-absorbs the blue edge of its own emission (its 4f→5d₁ excitation band peaks at
+    # 445–460 nm, σ ≈ 25 nm): the steep edge that leaves the 'cyan gap' after the pump.
+    reabs = _u(rng, 0.5, 2.0, m)[:, None] * _gauss(FINE_NM, _u(rng, 445.0, 460.0, m)[:, None], 25.0)
+    green = _energy_band(gpeak, gw) * np.exp(-reabs)
     # Red: CaAlSiN₃/(Sr,Ca)AlSiN₃:Eu 610–660 nm, 70–100 nm; a low-energy second green band where
     # no red phosphor is used (keeps three parts; the solver then finds little of it).
     red = _energy_band(_u(rng, 610.0, 660.0, m), _u(rng, 70.0, 100.0, m))
