@@ -143,6 +143,13 @@ def test_line_energy_lands_on_the_two_nearest_samples():
     assert grid[_idx(545)] / grid[_idx(550)] == pytest.approx(0.785 / 0.215, rel=0.01)
 
 
+@pytest.mark.parametrize(("peak", "fwhm"), [(405.0, 12.0), (450.0, 15.0), (630.0, 20.0), (560.0, 120.0)])
+def test_phosphor_and_led_bands_are_hat_averaged_like_resample_to_grid(peak, fwhm):
+    wl = np.arange(300.0, 900.0, 0.02)
+    ref = resample_to_grid(wl, prior._energy_band(np.array(peak), np.array(fwhm), wl))
+    assert np.abs(prior._band_grid(np.array(peak), np.array(fwhm)) - ref).max() < 5e-4 * ref.max()
+
+
 def test_fine_to_grid_is_resample_to_grid():
     rng = np.random.default_rng(3)
     fine = rng.random((3, prior.FINE_NM.size))
