@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None) -> Path:
     cols = 4
     rows = math.ceil(len(FAMILIES) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.6 * rows), sharex=True, sharey=True)
-    for ax, fam in zip(axes.flat, FAMILIES):
+    for ax, fam in zip(axes.flat, FAMILIES, strict=False):
         spds, _ = sample_spds(args.per_family, rng, families=[fam])
         for spd in spds:
             ax.plot(WAVELENGTHS_NM, spd, lw=0.9)

@@ -182,7 +182,8 @@ def _gauss_f2(t: Array, sigma: Array) -> Array:
 
 def _lorentz_f2(t: Array, gamma: Array) -> Array:
     """Second antiderivative of a unit-area Lorentzian (HWHM γ)."""
-    return (t / math.pi) * np.arctan(t / gamma) - gamma / (2 * math.pi) * np.log(t * t + gamma * gamma) + 0.5 * t
+    return (t / math.pi) * np.arctan(t / gamma) - gamma / (2 * math.pi) * np.log(t * t + gamma * gamma) \
+        + 0.5 * t
 
 
 # Lines are hat-integrated exactly on the 2·WIN+1 samples around them (from a table, below);
@@ -273,8 +274,9 @@ def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_
         return out
     delta = c - (GRID[0] + _D * j0)
     # Window: bilinear lookup in (δ, log FWHM); each table row conserves energy, so does the mix.
-    fd = np.clip((delta - _TAB_DELTA[0]) / (_TAB_DELTA[1] - _TAB_DELTA[0]), 0.0, _TAB_DELTA.size - 1.000001)
-    fw = np.clip((np.log(fwhm) - _TAB_LOGW[0]) / (_TAB_LOGW[1] - _TAB_LOGW[0]), 0.0, _TAB_LOGW.size - 1.000001)
+    last_d, last_w = _TAB_DELTA.size - 1.000001, _TAB_LOGW.size - 1.000001
+    fd = np.clip((delta - _TAB_DELTA[0]) / (_TAB_DELTA[1] - _TAB_DELTA[0]), 0.0, last_d)
+    fw = np.clip((np.log(fwhm) - _TAB_LOGW[0]) / (_TAB_LOGW[1] - _TAB_LOGW[0]), 0.0, last_w)
     i, j = fd.astype(np.int64), fw.astype(np.int64)
     td, tw = (fd - i)[:, None, None], (fw - j)[:, None, None]
     tab = _window_tables()  # (δ, log w, Gauss/Lorentz, samples)
@@ -295,7 +297,8 @@ def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_
         chans = [amp * d**q for q in range(6)] + [b * d**q for q in range(3)] + [c3]
         src = r * (N_BANDS + 2 * _FAR_PAD) + j0[has_l] + _FAR_PAD
         size = n_rows * (N_BANDS + 2 * _FAR_PAD)
-        dep = np.concatenate([np.bincount(src, weights=ch, minlength=size).reshape(n_rows, -1) for ch in chans], 1)
+        dep = np.concatenate([np.bincount(src, weights=ch, minlength=size).reshape(n_rows, -1)
+                              for ch in chans], axis=1)
         out += dep @ _far_kernels().reshape(-1, N_BANDS)
     return out
 
@@ -556,7 +559,7 @@ def _family(name: str) -> Callable[[Callable[[Generator, int], Array]], Callable
             return rows[0] if n is None else rows
 
         public.__name__ = public.__qualname__ = fn.__name__
-        public.__doc__ = (fn.__doc__ or "") + "\n\nReturns (81,) if ``n`` is None, else (n, 81); peak-normalised."
+        public.__doc__ = (fn.__doc__ or "") + "\n\nReturns (81,) if ``n`` is None, else (n, 81), peak 1."
         return public
 
     return wrap
@@ -589,7 +592,8 @@ def _smooth_curves(rng: Generator, n: int) -> Array:
     amp = _u(rng, 0.3, 1.5, n)[:, None] / kk[None, :] ** _u(rng, 1.0, 2.5, n)[:, None]
     coef = amp * rng.standard_normal((n, kk.size))
     phase = _u(rng, 0.0, 2 * math.pi, (n, kk.size))
-    logc = np.einsum("nk,nkb->nb", coef, np.cos(math.pi * kk[None, :, None] * u[:, None, :] + phase[..., None]))
+    waves = np.cos(math.pi * kk[None, :, None] * u[:, None, :] + phase[..., None])
+    logc = np.einsum("nk,nkb->nb", coef, waves)
     ln = np.exp(logc - logc.max(1, keepdims=True))
     pick = rng.random(n) < 0.5
     return np.where(pick[:, None], gs, ln)
@@ -681,9 +685,10 @@ def _atmosphere_tau(rng: Generator, n: int, lam: Array) -> tuple[Array, Array, A
     chappuis = 4.8e-21 * (0.8 * _gauss(lam, 602.0, 40.0) + 0.3 * _gauss(lam, 573.0, 18.0)
                           + 0.15 * _gauss(lam, 535.0, 25.0))
     ozone = du * 2.687e16 * chappuis
-    o2 = press * (1.5 * _gauss(lam, 760.8, 0.8) + 0.6 * _gauss(lam, 764.8, 1.8) + 0.4 * _gauss(lam, 687.3, 0.8)
-                  + 0.15 * _gauss(lam, 690.5, 1.5) + 0.03 * _gauss(lam, 628.5, 1.5)
-                  + 0.015 * _gauss(lam, 577.0, 4.0) + 0.015 * _gauss(lam, 630.0, 4.0))
+    o2 = press * (1.5 * _gauss(lam, 760.8, 0.8) + 0.6 * _gauss(lam, 764.8, 1.8)
+                  + 0.4 * _gauss(lam, 687.3, 0.8) + 0.15 * _gauss(lam, 690.5, 1.5)
+                  + 0.03 * _gauss(lam, 628.5, 1.5)  # O₂ γ band
+                  + 0.015 * _gauss(lam, 577.0, 4.0) + 0.015 * _gauss(lam, 630.0, 4.0))  # O₂–O₂ bands
     water_cm = _logu(rng, 0.3, 4.0, n)[:, None]
     h2o = np.sqrt(water_cm / 2.0) * (0.25 * _gauss(lam, 724.0, 7.0) + 0.06 * _gauss(lam, 697.0, 3.0)
                                      + 0.04 * _gauss(lam, 651.0, 4.0) + 0.03 * _gauss(lam, 592.0, 4.0))
@@ -891,8 +896,9 @@ def _continuum(rng: Generator, n: int, t_lo: float, t_hi: float) -> Array:
     """Broad background of an arc (recombination, molecular bands, far wings): a Planck shape
     times a gentle random curve."""
     bb = planck(GRID, _u(rng, t_lo, t_hi, n)[:, None])
-    wig = np.exp(0.3 * rng.standard_normal((n, 1)) * np.cos(math.pi * (GRID - 380.0) / 400.0 * _u(rng, 0.5, 2.0, n)[:, None]
-                                                           + _u(rng, 0, 2 * math.pi, n)[:, None]))
+    freq = _u(rng, 0.5, 2.0, n)[:, None]
+    phase = _u(rng, 0, 2 * math.pi, n)[:, None]
+    wig = np.exp(0.3 * rng.standard_normal((n, 1)) * np.cos(math.pi * (GRID - 380.0) / 400.0 * freq + phase))
     return _unit_power(bb * wig)
 
 
@@ -922,7 +928,8 @@ _MH_GROUPS = (
 
 def _mh_raw(rng: Generator, n: int) -> Array:
     lines = _group_lines(rng, n, _MH_GROUPS)
-    na = (rng.random(n) < 0.75)[:, None] * _logu(rng, 0.1, 1.0, n)[:, None] * _broad_na_d(rng, n, (1.5, 6.0), (3.0, 8.0))
+    na_power = (rng.random(n) < 0.75) * _logu(rng, 0.1, 1.0, n)
+    na = na_power[:, None] * _broad_na_d(rng, n, (1.5, 6.0), (3.0, 8.0))
     forest_power = (rng.random(n) < 0.5) * _logu(rng, 0.2, 2.0, n)
     forest = _random_lines(rng, n, (10, 60), 390.0, 660.0, (0.5, 3.0), forest_power)
     lines = lines + na + forest
@@ -982,7 +989,8 @@ def lps(rng: Generator, n: int) -> Array:
               _LineGroup(_NA_MINOR, power=(0.005, 0.03), fwhm=(0.5, 1.5)),
               _LineGroup(_NE, p=0.6, power=(0.002, 0.1), fwhm=(0.5, 1.5)),
               _LineGroup(_AR, p=0.3, power=(0.001, 0.03), fwhm=(0.5, 1.5))]
-    return _group_lines(rng, n, groups) + _continuum(rng, n, 2000.0, 4000.0) * _logu(rng, 1e-3, 2e-2, n)[:, None]
+    glow = _continuum(rng, n, 2000.0, 4000.0) * _logu(rng, 1e-3, 2e-2, n)[:, None]
+    return _group_lines(rng, n, groups) + glow
 
 
 @_family("mercury")
