@@ -457,7 +457,7 @@ def _locus_table() -> tuple[Array, Array]:
 
 
 def _cct_duv(spd: Array) -> tuple[Array, Array]:
-    """Approximate CCT and Duv (nearest point of a tabulated Planckian locus, ±0.6 % in CCT):
+    """Approximate CCT and Duv (nearest of 600 tabulated Planckian points, CCT within ~0.4 %):
     enough to keep mostly-white lamp families white."""
     t, loc = _locus_table()
     uv = _uv(_xyz(spd))
@@ -1048,7 +1048,9 @@ _FILTER_BASES = ("blackbody", "incandescent", "daylight", "led_white", "led_viol
 
 @_family("filtered")
 def filtered(rng: Generator, n: int) -> Array:
-    """A physical source behind a colour gel or filter (stage, film and photo lighting)."""
+    """A physical source behind a colour gel or filter (stage, film and photo lighting). The
+    source family is drawn with :data:`DEFAULT_WEIGHTS` (``sample_spds(weights=…)`` does not
+    reach inside) and the row is labelled ``filtered``."""
     w = np.array([DEFAULT_WEIGHTS[f] for f in _FILTER_BASES])
     base_idx = rng.choice(len(_FILTER_BASES), n, p=w / w.sum())
     out = np.empty((n, N_BANDS))
