@@ -191,7 +191,8 @@ def test_incandescent_is_warm():
     assert np.median(np.abs(duv)) < 0.003  # thermal sources sit on the Planckian locus
 
 
-@pytest.mark.parametrize(("family", "lo", "hi"), [("led_white", 2200.0, 6500.0), ("led_violet", 2700.0, 6500.0),
+@pytest.mark.parametrize(("family", "lo", "hi"), [("led_white", 2200.0, 6500.0),
+                                                  ("led_violet", 2700.0, 6500.0),
                                                   ("fluorescent_tri", 2700.0, 6500.0)])
 def test_white_sources_hit_their_cct_range_near_the_locus(family, lo, hi):
     spds = getattr(prior, family)(np.random.default_rng(9), 400)
