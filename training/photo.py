@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from cd_spectra_addon.core.cameras import CameraProfile
+from cd_spectra_addon.core.capture import Scene
+from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.srgb import srgb_encode
 
 FORMATS = ("exr", "png", "png16", "jpg")
@@ -28,7 +30,7 @@ AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
 
-__all__ = ["FORMATS", "linear_photo", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
+__all__ = ["FORMATS", "linear_photo", "track_mask", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
 
 
 def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: CameraProfile) -> NDArray[np.float64]:
@@ -39,9 +41,21 @@ def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: 
     return (weights.T @ flat).T.reshape(height, width, 3)
 
 
-def expose(image: NDArray[np.float64], exposure: float = 1.0) -> tuple[NDArray[np.float64], float]:
-    """Scale so the brightest value is AUTO_EXPOSURE_LEVEL × exposure; returns (image, gain)."""
-    peak = float(np.max(image))
+def track_mask(scene: Scene) -> NDArray[np.bool_]:
+    """Pixels whose centre sees the tracked area of the disc: where a photographer meters."""
+    width, height = scene.preset.camera.image_size_px
+    px = pixel_diffraction(scene)
+    mask = np.zeros(width * height, dtype=bool)
+    mask[px.index[px.on_tracks]] = True
+    return mask.reshape(height, width)
+
+
+def expose(image: NDArray[np.float64], exposure: float = 1.0,
+           meter: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.float64], float]:
+    """Scale so the brightest metered value is AUTO_EXPOSURE_LEVEL × exposure (a specular glint
+    off the metered area may clip, as it does in a real photo); returns (image, gain)."""
+    metered = image if meter is None or not np.any(meter) else image[meter]
+    peak = float(np.max(metered))
     gain = AUTO_EXPOSURE_LEVEL * float(exposure) / peak if peak > 0 else 0.0
     return image * gain, gain
 
@@ -61,10 +75,11 @@ def synthesize(
     exposure: float = 1.0,
     noise: float = 0.0,
     rng: np.random.Generator | None = None,
+    meter: NDArray[np.bool_] | None = None,
 ) -> tuple[NDArray[np.float64], float]:
     """Sensor-level linear photo (clipped at full scale 1.0) and the exposure gain used."""
     rng = rng if rng is not None else np.random.default_rng(0)
-    image, gain = expose(linear_photo(cube, spd, camera), exposure)
+    image, gain = expose(linear_photo(cube, spd, camera), exposure, meter)
     image = add_noise(image, noise, rng)
     return np.minimum(image, 1.0), gain
 
