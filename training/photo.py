@@ -114,7 +114,8 @@ def _png16(rgb16: NDArray[np.uint16]) -> bytes:
             + chunk(b"IEND", b""))
 
 
-def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> bytes:
+def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None,
+                 quality: int = JPEG_QUALITY) -> bytes:
     """File bytes of a sensor-level linear photo in ``fmt``."""
     if fmt == "exr":
         import OpenEXR
@@ -134,15 +135,16 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
     if fmt == "png":
         Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"")
     elif fmt == "jpg":
-        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=JPEG_QUALITY, exif=exif or b"")
+        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=int(quality), exif=exif or b"")
     else:
         raise ValueError(f"format must be one of {FORMATS}")
     return buffer.getvalue()
 
 
-def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> None:
+def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None,
+                quality: int = JPEG_QUALITY) -> None:
     """Encode and write atomically (temporary file in the same folder, then rename)."""
-    data = encode_photo(image, fmt, exif)
+    data = encode_photo(image, fmt, exif, quality)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
     try:

@@ -8,16 +8,38 @@ units (exposure included); callers peak-normalise.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
 from .nnls import nnls_normal
+from .spectral_grid import WAVELENGTHS_NM
 from .profile import Profile
 
 SMOOTHNESS = 3e-3  # relative to the data term's mean curvature; chosen on synthetic prior spectra
 MODEL_ERROR_FLOOR = 0.01  # features are trusted to 1 % of their peak at best
+PRIOR_STRENGTH = 0.1  # weight of the Gaussian prior (1 = fully Bayesian); tuned on synthetic spectra
+PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
+SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
 
-__all__ = ["SMOOTHNESS", "second_difference", "system", "physics_solve"]
+__all__ = ["SMOOTHNESS", "GaussianPrior", "second_difference", "system", "physics_solve", "prior_solve"]
+
+
+@dataclass(frozen=True)
+class GaussianPrior:
+    """Mean and covariance of peak-normalised SPDs from the synthetic prior (never from lamps)."""
+
+    mean: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+
+    @classmethod
+    def from_samples(cls, spds: NDArray[np.float64]) -> "GaussianPrior":
+        return cls(np.mean(spds, axis=0), np.cov(np.asarray(spds, dtype=np.float64).T))
+
+    def precision(self, jitter: float = PRIOR_JITTER) -> NDArray[np.float64]:
+        n = self.mean.size
+        return np.linalg.inv(self.covariance + jitter * np.eye(n))
 
 
 def second_difference(n: int) -> NDArray[np.float64]:
@@ -66,3 +88,28 @@ def physics_solve(profile: Profile, matrix: NDArray[np.float64], smoothness: flo
     ridge = 1e-9 * np.trace(gram[:n, :n]) / n
     x = nnls_normal(gram + lam * reg + ridge * np.eye(gram.shape[0]), a.T @ y)
     return x[:n]
+
+
+def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPrior,
+                strength: float = PRIOR_STRENGTH, gain: NDArray[np.float64] | None = None,
+                precision: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Non-negative MAP estimate under the Gaussian prior (a Wiener-style solve).
+
+    The photo's scale is unknown, so the smoothness solve first sets it from the band every
+    camera sees well; the prior then fills what the camera cannot see (its blind tails) with
+    what lamps usually do there, instead of extrapolating a curve into the dark.
+    """
+    n = matrix.shape[-1]
+    first = physics_solve(profile, matrix, gain=gain)
+    band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
+    s = float(first[band].max()) or float(first.max())
+    if s <= 0:
+        return first
+    a, y, _ = system(profile, matrix, gain)
+    prec = prior.precision() if precision is None else precision
+    gram = a.T @ a
+    rhs = a.T @ y
+    gram[:n, :n] += strength * prec / (s * s)
+    rhs[:n] += strength * (prec @ prior.mean) / s
+    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
+    return nnls_normal(gram, rhs)[:n]
