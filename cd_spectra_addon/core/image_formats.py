@@ -34,7 +34,8 @@ from .errors import PhotoError
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
     "MAX_FILE_BYTES", "MAX_PIXELS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
-    "pillow_header", "pillow_pixels", "exif_from_pillow", "tiff_header", "exr_header", "exr_pixels", "array_pixels",
+    "pillow_header", "pillow_pixels", "exif_from_pillow", "tiff_header", "exr_header", "exr_pixels",
+    "array_pixels",
 ]
 
 MAX_FILE_BYTES = 512 * 1024 * 1024
@@ -172,7 +173,8 @@ def _other_format(head: bytes) -> str | None:
         if brand == b"crx ":
             return "Canon CR3 raw"
     known = [(b"GIF8", "GIF"), (b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
-             (b"#?RGBE", "Radiance HDR"), (b"\x00\x00\x00\x0cjP  ", "JPEG 2000"), (b"\xff\x4f\xff\x51", "JPEG 2000"),
+             (b"#?RGBE", "Radiance HDR"), (b"\x00\x00\x00\x0cjP  ", "JPEG 2000"),
+             (b"\xff\x4f\xff\x51", "JPEG 2000"),
              (b"FUJIFILMCCD-RAW", "Fujifilm raw"), (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
              (b"\x00\x00\x00\x0cJXL ", "JPEG XL")]
     for magic, name in known:
@@ -207,8 +209,8 @@ def open_pillow(path: Path, fmt: str) -> Any:
         try:
             return Image.open(path, formats=[fmt.upper()])
         except Image.DecompressionBombError:
-            raise PhotoError(f"{path}: the header claims an enormous image "
-                             f"(more than {MAX_PIXELS // 1_000_000} megapixels); refusing to decode it") from None
+            raise PhotoError(f"{path}: the header claims an enormous image (more than "
+                             f"{MAX_PIXELS // 1_000_000} megapixels); refusing to decode it") from None
 
 
 _WIDE_RAWMODES = {f"{m};16{e}" for m in ("RGB", "RGBA", "RGBX") for e in "BLN"}
@@ -271,12 +273,14 @@ def pillow_header(im: Any, path: Path, fmt: str) -> PhotoHeader:
                        "linear" if linear else "srgb")
 
 
-def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int, keep: Callable[[Any], Any]) -> Pixels:
+def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int,
+                  keep: Callable[[Any], Any]) -> Pixels:
     """Decode ``im`` (JPEG: DCT-domain scaled by ``draft``). ``keep`` registers images to close."""
     used_draft = 1
     if fmt == "jpeg" and draft > 1:
         im.draft("RGB", (im.width // draft, im.height // draft))
-        used_draft = next((s for s in (8, 4, 2, 1) if (-(-header.width // s), -(-header.height // s)) == im.size), 0)
+        sizes = {s: (-(-header.width // s), -(-header.height // s)) for s in (8, 4, 2, 1)}
+        used_draft = next((s for s, size in sizes.items() if size == im.size), 0)
         if used_draft == 0:
             raise RuntimeError(f"unexpected JPEG draft size {im.size} for {header.width}x{header.height}")
     wide = _truncated_16bit(im)
@@ -409,15 +413,17 @@ def tiff_header(path: Path) -> PhotoHeader:
                 fh.seek(here)
             tags[tag] = value
     width, height = tags.get(256, 0), tags.get(257, 0)
+    if width <= 0 or height <= 0:
+        raise ValueError("the TIFF's first image has no size")
     bits = tags.get(258, 1)
     samples = tags.get(277, 1)
     sample_format = tags.get(339, 1)
     bits = 32 if sample_format == 3 else (16 if bits == 16 else 8)
     channels = 1 if samples in (1, 2) else 3
     linear = bits == 32 or (bits == 16 and 34675 not in tags)
-    orientation = tags.get(274)
-    exif = ExifInfo(orientation=orientation if isinstance(orientation, int) and 1 <= orientation <= 8 else None)
-    return PhotoHeader(str(path), "tiff", max(width, 0), max(height, 0), bits, channels,
+    orientation = tags.get(274, 0)
+    exif = ExifInfo(orientation=orientation if 1 <= orientation <= 8 else None)
+    return PhotoHeader(str(path), "tiff", width, height, bits, channels,
                        "linear" if linear else "srgb", exif)
 
 
@@ -447,7 +453,8 @@ def _exr_pick(names: list[str]) -> list[str]:
         return ["Y"]
     layers = sorted(n[:-2] for n in names if n.endswith(".R") and {n[:-2] + ".G", n[:-2] + ".B"} <= have)
     if not layers:
-        raise Unsupported(f"the EXR has no R, G, B or Y channels (it has {', '.join(sorted(names)) or 'none'})")
+        found = ", ".join(sorted(names)) or "none"
+        raise Unsupported(f"the EXR has no R, G, B or Y channels (it has {found})")
     preferred = [lay for lay in layers if "combined" in lay.lower() or "beauty" in lay.lower()]
     layer = (preferred or layers)[0]
     return [f"{layer}.R", f"{layer}.G", f"{layer}.B"]

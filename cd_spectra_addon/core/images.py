@@ -37,7 +37,7 @@ Decisions (measured on 2 cores; see tests/test_images.py for the timing test):
 * **Invalid floats.** NaN/Inf pixels are excluded from the box mean (the mean of the valid
   contributors is used) and flagged ``invalid`` if any contributor was invalid; more than half
   the pixels invalid is an error.
-* **Memory.** Pixels are read and reduced in row bands of ~2 MP, so no full-resolution float
+* **Memory.** Pixels are read and reduced in row bands of ~1 MP, so no full-resolution float
   image exists. Peak: the decoded image itself (Pillow: 4 bytes/px, twice for 16-bit; EXR: all
   channels of the part) plus one band; 100 MP and 512 MB on disk are refused before decoding.
 """
@@ -71,7 +71,7 @@ __all__ = [
 SATURATION_8BIT = 250
 SATURATION_16BIT = 65000
 BLACK_LEVEL = 1e-3  # brightest linear value (of full scale) below which an integer photo is black
-BAND_PIXELS = 2_000_000
+BAND_PIXELS = 1_000_000
 CLIP_EPS = 1e-3
 CLIP_MIN_COUNT = 8
 CLIP_RATIO = 4
@@ -187,18 +187,21 @@ def _closer(stack: ExitStack) -> Callable[[Any], Any]:
 def _check_size(name: str, header: PhotoHeader) -> None:
     w, h = header.width, header.height
     if w * h > MAX_PIXELS:
-        raise PhotoError(f"{name}: the header claims {w}x{h} pixels ({w * h / 1e6:.0f} megapixels); the limit "
-                         f"is {MAX_PIXELS // 1_000_000} megapixels (refused before decoding)")
+        raise PhotoError(f"{name}: the header claims {w}x{h} pixels ({w * h / 1e6:.0f} megapixels); "
+                         f"the limit is {MAX_PIXELS // 1_000_000} megapixels (refused before decoding)")
     if min(w, h) < MIN_SIDE:
         raise PhotoError(f"{name}: the image is too small ({w}x{h}); the disc needs at least "
                          f"{MIN_SIDE} pixels on the short side")
 
 
+def _ceil_div(a: int, b: int) -> int:
+    return -(-a // b)
+
+
 def _factors(long_side: int, max_side: int) -> tuple[int, int]:
     """(draft, box): draft the largest of 8/4/2 that still decodes ≥ max_side, box the rest."""
-    draft = next((d for d in (8, 4, 2) if -(-long_side // d) >= max_side), 1)
-    box = max(1, -(-(-(-long_side // draft)) // max_side))
-    return draft, box
+    draft = next((d for d in (8, 4, 2) if _ceil_div(long_side, d) >= max_side), 1)
+    return draft, max(1, _ceil_div(_ceil_div(long_side, draft), max_side))
 
 
 def _fallback(name: str, header: PhotoHeader, reason: Unsupported) -> Pixels:
@@ -256,6 +259,10 @@ def _box_any(x: NDArray[np.bool_], k: int) -> NDArray[np.bool_]:
     return out
 
 
+def _box_all(x: NDArray[np.bool_], k: int) -> NDArray[np.bool_]:
+    return ~_box_any(~x, k)
+
+
 def _channel_max(x: NDArray[Any]) -> NDArray[Any]:
     """Max over the (short) last axis; ``x.max(axis=2)`` is ~30× slower for 3 channels."""
     out = x[..., 0].copy()
@@ -282,7 +289,8 @@ def _linearise(pixels: Pixels, box: int, header: PhotoHeader, name: str, transfe
     channels = rgb.shape[2]
     if channels == 1:
         rgb = np.repeat(rgb, 3, axis=2)
-    is_grey = channels == 1 or bool(np.array_equal(rgb[..., 0], rgb[..., 1]) and np.array_equal(rgb[..., 1], rgb[..., 2]))
+    is_grey = channels == 1 or bool(
+        np.array_equal(rgb[..., 0], rgb[..., 1]) and np.array_equal(rgb[..., 1], rgb[..., 2]))
     orientation = header.exif.orientation or 1
     rgb, saturated, invalid = (_orient(a, orientation) for a in (rgb, saturated, invalid))
     return LinearImage(
@@ -292,7 +300,10 @@ def _linearise(pixels: Pixels, box: int, header: PhotoHeader, name: str, transfe
         is_grey=is_grey)
 
 
-def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+_Reduced = tuple[NDArray[np.float32], NDArray[np.bool_], NDArray[np.bool_]]  # rgb, saturated, invalid
+
+
+def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
     lut = _lut(pixels.bits, srgb)
     threshold = SATURATION_8BIT if pixels.bits == 8 else SATURATION_16BIT
     h, w, c = pixels.height // box, pixels.width // box, pixels.channels
@@ -313,18 +324,29 @@ def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> tuple[NDArra
     return rgb, saturated, np.zeros((h, w), bool)
 
 
-def _reduce_float(pixels: Pixels, box: int, srgb: bool, name: str) -> tuple[NDArray[Any], NDArray[Any], NDArray[Any]]:
+def _float_planes(
+        pixels: Pixels, y0: int, y1: int, width: int) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Rows as contiguous float64 channel planes (C, rows, width) with invalid pixels zeroed,
+    and the valid mask. float64: sums of float32 values near 3e38 would overflow to inf."""
+    planes = np.ascontiguousarray(np.moveaxis(pixels.read(y0, y1)[:, :width], -1, 0), dtype=np.float64)
+    valid = np.isfinite(planes[0])
+    for plane in planes[1:]:
+        valid &= np.isfinite(plane)
+    if not valid.all():
+        planes[:, ~valid] = 0.0
+    return planes, valid
+
+
+def _reduce_float(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
     h, w, c = pixels.height // box, pixels.width // box, pixels.channels
     bands = _bands(pixels, box)
     # Pass 1: invalid count and per-channel maximum of the finite samples.
     peak = np.full(c, -np.inf)
     n_invalid = 0
     for y0, y1 in bands:
-        x = pixels.read(y0, y1)[:, : w * box]
-        finite = np.isfinite(x).all(axis=2)
-        n_invalid += int(finite.size - np.count_nonzero(finite))
-        if finite.any():
-            peak = np.maximum(peak, x[finite].max(axis=0))
+        planes, valid = _float_planes(pixels, y0, y1, w * box)
+        n_invalid += int(valid.size - np.count_nonzero(valid))
+        peak = np.maximum(peak, [plane.max() for plane in planes])
     total = h * box * w * box
     if n_invalid * 2 > total:
         raise PhotoError(f"{name}: {100 * n_invalid / total:.0f}% of the pixels are NaN or infinite")
@@ -335,25 +357,24 @@ def _reduce_float(pixels: Pixels, box: int, srgb: bool, name: str) -> tuple[NDAr
     # Pass 2: mean of the valid contributors, per-channel clip candidates and the pile-up counts.
     rgb = np.empty((h, w, c), np.float32)
     invalid = np.empty((h, w), bool)
-    candidates = np.empty((h, w, c), bool)
+    candidates = np.empty((c, h, w), bool)
     n_top = np.zeros(c, np.int64)
     n_below = np.zeros(c, np.int64)
     for y0, y1 in bands:
-        x = pixels.read(y0, y1)[:, : w * box].astype(np.float64)
-        finite = np.isfinite(x).all(axis=2)
-        x[~finite] = 0.0
-        high = x >= clip
-        n_top += np.count_nonzero(high, axis=(0, 1))
-        n_below += np.count_nonzero((x >= below) & ~high, axis=(0, 1))
-        if srgb:
-            x = srgb_decode(x)
+        planes, valid = _float_planes(pixels, y0, y1, w * box)
         rows = slice(y0 // box, y1 // box)
-        count = _box_sum(finite.astype(np.float64), box)
-        rgb[rows] = _box_sum(x, box) / np.maximum(count, 1.0)[..., None]
-        invalid[rows] = _box_any(~finite, box)
-        candidates[rows] = _box_any(high, box)
+        count = np.maximum(_box_sum(valid.astype(np.float64), box), 1.0)
+        invalid[rows] = ~_box_all(valid, box)
+        for i, plane in enumerate(planes):
+            high = plane >= clip[i]
+            n_top[i] += np.count_nonzero(high)
+            n_below[i] += np.count_nonzero(plane >= below[i]) - np.count_nonzero(high)
+            candidates[i, rows] = _box_any(high, box)
+            rgb[rows, :, i] = _box_sum(srgb_decode(plane) if srgb else plane, box) / count
     evident = (n_top >= CLIP_MIN_COUNT) & (n_top >= CLIP_RATIO * n_below)
-    saturated = (candidates & evident).any(axis=2)
+    saturated = np.zeros((h, w), bool)
+    for i in np.flatnonzero(evident):
+        saturated |= candidates[i]
     return rgb, saturated, invalid
 
 
