@@ -5,7 +5,7 @@ This covers what it cannot: 16-bit grey+alpha PNG, 16-bit CMYK or float RGB TIFF
 EXR, ... It is slow (≈1.5 s for 12 MP plus importing bpy) and needs 32 bytes per pixel, which is
 why it is a fallback and not the default.
 
-Raw file values are read: the colourspace is set to Non-Color (no OCIO transform; the core
+Raw file values are read: the image is marked as data (Non-Color: no OCIO transform; the core
 applies the transfer curve it decides from the header, the same as on every other path) and the
 alpha mode to Channel Packed (Blender would otherwise premultiply float buffers). The datablock
 is created with ``check_existing=False`` and removed afterwards, so the user's file is unchanged.
@@ -29,7 +29,7 @@ def decode_with_blender(path: str, header: PhotoHeader) -> DecodedPixels | None:
     except RuntimeError:
         return None
     try:
-        image.colorspace_settings.name = "Non-Color"
+        image.colorspace_settings.is_data = True  # the config's data space ("Non-Color"), whatever its name
         image.alpha_mode = "CHANNEL_PACKED"
         width, height = image.size
         channels = image.channels
