@@ -1,0 +1,1 @@
+"""The Blender layer: everything that imports bpy (operators, panels, light builders, decoders)."""
