@@ -38,7 +38,7 @@ from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from . import photo
 from .basis import REPO, basis_cube
-from .spd_prior import sample_spds
+from .spd_prior import gaussian_prior, sample_spds
 
 DATA_DIR = REPO / "data" / "dataset"
 GENERIC = "generic"
@@ -201,6 +201,8 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
     variants = _variants(spec, cube, rng, job.n_fits, job.cameras)
     meter = photo.track_mask(scene)
     generic = generic_sensitivities(job.cameras)
+    prior = gaussian_prior()
+    precision = prior.precision()
     cam = scene.preset.camera
     spds, families = sample_spds(job.n_samples, rng)
     inputs = np.zeros((job.n_samples, INPUT_SIZE), dtype=np.float32)
@@ -229,7 +231,7 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             use_generic = rng.random() < deg.generic_probability
             sens = generic if use_generic else camera.sensitivities
             matrix = forward.feature_matrix(variant.response, CameraProfile(GENERIC, sens))
-            e_phys = solve.physics_solve(prof, matrix)
+            e_phys = solve.prior_solve(prof, matrix, prior, precision=precision)
             inputs[i] = model_inputs(prof, sens, e_phys, variant.scene.preset.light.lobe_sigma, use_generic,
                                      variant.residual)
             peak = float(e_phys.max())
@@ -264,6 +266,7 @@ def build_dataset(cube_set: str = "full", n_per_cube: int = 2500, seed: int = 0,
     for spec in specs:
         basis_cube(spec.scene(), engine, samples, **({"cache_dir": cache_dir} if cache_dir else {}),
                    log=log)
+    gaussian_prior()  # computed once here; forked workers inherit the cached value
     jobs = [_CubeJob(spec, n_per_cube, seed * 1000 + i, train_cams, deg, engine, samples, n_fits,
                      str(cache_dir) if cache_dir else None) for i, spec in enumerate(specs)]
     start = time.perf_counter()

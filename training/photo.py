@@ -100,7 +100,7 @@ def exif_for(focal_length_mm: float, sensor_width_mm: float, image_width_px: int
     return exif.tobytes()
 
 
-def _png16(rgb16: NDArray[np.uint16]) -> bytes:
+def _png16(rgb16: NDArray[np.uint16], level: int = 6) -> bytes:
     """Minimal 16-bit RGB PNG writer (Pillow cannot write 16-bit colour PNGs)."""
     height, width, _ = rgb16.shape
     raw = np.zeros((height, 1 + width * 6), dtype=np.uint8)
@@ -110,7 +110,7 @@ def _png16(rgb16: NDArray[np.uint16]) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
     header = struct.pack(">IIBBBBB", width, height, 16, 2, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), level))
             + chunk(b"IEND", b""))
 
 
@@ -129,11 +129,11 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
             return Path(path).read_bytes()
     encoded = srgb_encode(image)  # clips to [0, 1]
     if fmt == "png16":
-        return _png16(np.rint(encoded * 65535.0).astype(np.uint16))
+        return _png16(np.rint(encoded * 65535.0).astype(np.uint16), level=1)
     rgb8 = np.rint(encoded * 255.0).astype(np.uint8)
     buffer = io.BytesIO()
     if fmt == "png":
-        Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"")
+        Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"", compress_level=1)
     elif fmt == "jpg":
         Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=int(quality), exif=exif or b"")
     else:

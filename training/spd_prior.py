@@ -1122,3 +1122,13 @@ def sample_spds(
             out[idx] = _generate(fam, rng, idx.size)
     return out, [fams[i] for i in label_idx]
 
+
+
+@cache
+def gaussian_prior(n: int = 50_000, seed: int = 20240) -> "GaussianPrior":
+    """Mean and covariance of the prior's spectra: the physics solve's Gaussian prior (baked into
+    the model's metadata; a fixed seed so every build gets the same numbers)."""
+    from cd_spectra_addon.core.solve import GaussianPrior
+
+    spds, _ = sample_spds(n, np.random.default_rng(seed))
+    return GaussianPrior.from_samples(spds)

@@ -31,7 +31,8 @@ from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, la
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from .basis import REPO
-from .dataset import CUBE_SETS, camera_split, generic_sensitivities, build_dataset
+from .dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
+from .spd_prior import gaussian_prior
 
 BAND_WEIGHT = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 1.0, 0.5)
 
@@ -188,6 +189,7 @@ def main(argv: list[str] | None = None) -> int:
     data = dict(np.load(path))
     model, info = train(data, args.epochs, args.seed, tuple(args.hidden))
     train_cams, held = camera_split()
+    prior = gaussian_prior()
     args.out.mkdir(parents=True, exist_ok=True)
     metadata: dict[str, Any] = {
         "name": MODEL_NAME,
@@ -207,6 +209,9 @@ def main(argv: list[str] | None = None) -> int:
                      "n_per_cube": args.n_per_cube, "seed": args.seed, "engine": args.engine,
                      "total_seconds": None},
         "metrics": {},
+        "prior": {"mean": prior.mean.round(7).tolist(), "covariance": prior.covariance.round(9).tolist(),
+                  "strength": solve.PRIOR_STRENGTH, "jitter": solve.PRIOR_JITTER,
+                  "source": "training.spd_prior.gaussian_prior() (synthetic spectra only)"},
     }
     onnx_path = args.out / f"{MODEL_NAME}.onnx"
     diff = export_onnx(model, onnx_path, metadata)

@@ -44,17 +44,19 @@ class Profile:
 
 def _bin_median(bins: NDArray[np.int64], values: NDArray[np.float64], n_bins: int) -> NDArray[np.float64]:
     """Median of ``values`` per bin (NaN for empty bins), by one sort."""
-    order = np.lexsort((values, bins))
-    sorted_bins = bins[order]
+    # One argsort of a combined key (bin, then value) instead of a lexsort.
+    lo, hi = float(np.min(values)) if values.size else 0.0, float(np.max(values)) if values.size else 1.0
+    span = hi - lo if hi > lo else 1.0
+    key = bins.astype(np.float64) * 4.0 + (values - lo) / span  # values map into [0, 1] ⊂ [0, 4)
+    order = np.argsort(key, kind="stable")
     sorted_vals = values[order]
     counts = np.bincount(bins, minlength=n_bins)
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     out = np.full(n_bins, np.nan)
     has = counts > 0
-    lo = starts[has] + (counts[has] - 1) // 2
-    hi = starts[has] + counts[has] // 2
-    out[has] = 0.5 * (sorted_vals[lo] + sorted_vals[hi])
-    del sorted_bins
+    first = starts[has] + (counts[has] - 1) // 2
+    last = starts[has] + counts[has] // 2
+    out[has] = 0.5 * (sorted_vals[first] + sorted_vals[last])
     return out
 
 
