@@ -18,11 +18,9 @@ import math
 import os
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,10 +55,13 @@ class CubeSpec:
     tilt_deg: tuple[float, float] = (0.0, 0.0)
     lobe_sigma: float | None = None
     distance_mm: float | None = None
+    groove_height_um: float | None = None
     size: int = 256
 
     def scene(self) -> Scene:
         preset = load_preset(self.preset).with_image_size(self.size)
+        if self.groove_height_um is not None:
+            preset = replace(preset, disc=replace(preset.disc, groove_height_um=self.groove_height_um))
         if self.lobe_sigma is not None:
             preset = replace(preset, light=replace(preset.light, lobe_sigma=self.lobe_sigma))
         if self.distance_mm is not None:
@@ -116,7 +117,7 @@ def generic_sensitivities(names: list[str] | None = None) -> NDArray[np.float64]
 class Degradation:
     """What happens between the lens and the file (ranges sampled per photo)."""
 
-    exposure: tuple[float, float] = (0.35, 1.35)  # × auto exposure; above 1.25 the peak clips
+    exposure: tuple[float, float] = (0.3, 2.0)  # × auto exposure (log-uniform); above 1.25 the peak clips
     noise: tuple[float, float] = (0.002, 0.03)
     ambient_probability: float = 0.25
     ambient: tuple[float, float] = (0.0, 0.02)
@@ -157,7 +158,7 @@ class _CubeJob:
     samples: int | None
     n_fits: int
     cache_dir: str | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
+    families: tuple[str, ...] | None = None
 
 
 def _write_and_load(image: NDArray[np.float64], fmt: str, quality: int, tmpdir: str, exif: bytes
@@ -204,7 +205,7 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
     prior = gaussian_prior()
     precision = prior.precision()
     cam = scene.preset.camera
-    spds, families = sample_spds(job.n_samples, rng)
+    spds, families = sample_spds(job.n_samples, rng, families=job.families)
     inputs = np.zeros((job.n_samples, INPUT_SIZE), dtype=np.float32)
     physics = np.zeros((job.n_samples, 81), dtype=np.float32)
     meta = np.zeros((job.n_samples, 4), dtype=np.float32)  # format index, noise, exposure, generic

@@ -58,6 +58,8 @@ from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
+
+from cd_spectra_addon.core.solve import GaussianPrior
 from numpy.typing import ArrayLike, NDArray
 
 from cd_spectra_addon.core.spectral_grid import (
@@ -1125,10 +1127,8 @@ def sample_spds(
 
 
 @cache
-def gaussian_prior(n: int = 50_000, seed: int = 20240) -> "GaussianPrior":
+def gaussian_prior(n: int = 50_000, seed: int = 20240) -> GaussianPrior:
     """Mean and covariance of the prior's spectra: the physics solve's Gaussian prior (baked into
     the model's metadata; a fixed seed so every build gets the same numbers)."""
-    from cd_spectra_addon.core.solve import GaussianPrior
-
     spds, _ = sample_spds(n, np.random.default_rng(seed))
     return GaussianPrior.from_samples(spds)

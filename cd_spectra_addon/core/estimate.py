@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +27,7 @@ from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from .capture import Preset, load_preset
 from .errors import CDSpectraError, NoDiscError, PhotoError
 from .forward import feature_matrix
+from .geometry import GeometryFit
 from .images import LinearImage, load_photo
 from .model import SpectralModel, load_model, model_inputs
 from .profile import Profile
@@ -154,8 +155,17 @@ def estimate_image(
     model: SpectralModel | None | str = "shipped",
     focal_px: float | None = None,
     progress: Progress | None = None,
+    method: str = "model",
+    fit: GeometryFit | None = None,
 ) -> Estimate:
-    """Estimate from an already loaded photo (see :func:`estimate_photo`)."""
+    """Estimate from an already loaded photo (see :func:`estimate_photo`).
+
+    ``method``: "model" (physics + prior + network, the product), "prior" (physics under the
+    Gaussian prior only) or "physics" (smoothness-regularised physics only) — the benchmark's
+    operating points.
+    """
+    if method not in ("model", "prior", "physics"):
+        raise CDSpectraError(f"unknown method {method!r}")
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
@@ -169,9 +179,8 @@ def estimate_image(
     if focal_px is None:
         focal_px, source = focal_px_for(image, preset_obj)
     report(0.2, "Finding the disc")
-    t1 = time.perf_counter()
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
-    analysis = analyse(rgb, saturated, preset_obj, focal_px)
+    analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
     profile = _calibrated(analysis.profile, cal)
     if int(np.sum(profile.valid)) < 10 or analysis.fit.residual > 0.6:
         raise NoDiscError(f"no CD rainbow found in {Path(image.path).name or 'the photo'}: photograph the disc "
@@ -179,7 +188,7 @@ def estimate_image(
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
     matrix = feature_matrix(analysis.response, cam)
-    prior = _prior(mdl)
+    prior = _prior(mdl) if method != "physics" else None
     if prior is not None:
         e_phys = prior_solve(profile, matrix, prior[0], precision=prior[1])
     else:
@@ -187,7 +196,7 @@ def estimate_image(
     if not np.any(e_phys > 0):
         raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
     sigma = analysis.scene.preset.light.lobe_sigma
-    if mdl is not None:
+    if mdl is not None and method == "model":
         x = model_inputs(profile, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
         spd, std = mdl.predict(x)
     else:
@@ -223,7 +232,8 @@ def estimate_image(
         spd=spd, spd_std=std, xy=(float(xy[0]), float(xy[1])), cct_k=cct, duv=duv,
         rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
         disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
-        calibration=None if cal is None else cal.name, model_version=mdl.version if mdl else "physics-only",
+        calibration=None if cal is None else cal.name,
+        model_version=(mdl.version if mdl else "") + ("" if method == "model" else f" ({method} only)"),
         working_space=working_space,
         extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
                "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
@@ -241,6 +251,7 @@ def estimate_photo(
     working_space: str = "Linear Rec.709",
     model: SpectralModel | None | str = "shipped",
     progress: Progress | None = None,
+    method: str = "model",
 ) -> Estimate:
     """The lamp's SPD from a CD photo (JPEG/PNG/TIFF/EXR). Raises CDSpectraError subclasses with
     a message for the user on bad input; never returns NaN."""
@@ -250,7 +261,7 @@ def estimate_photo(
     image = load_photo(path, max_side=MAX_SIDE)
     load_ms = (time.perf_counter() - t0) * 1e3
     result = estimate_image(image, preset=preset, camera=camera, calibration=calibration,
-                            working_space=working_space, model=model, progress=progress)
+                            working_space=working_space, model=model, progress=progress, method=method)
     result.timing_ms["load"] = load_ms
     result.timing_ms["total"] += load_ms
     return result

@@ -92,7 +92,8 @@ def physics_solve(profile: Profile, matrix: NDArray[np.float64], smoothness: flo
 
 def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPrior,
                 strength: float = PRIOR_STRENGTH, gain: NDArray[np.float64] | None = None,
-                precision: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+                precision: NDArray[np.float64] | None = None, smoothness: float = SMOOTHNESS
+                ) -> NDArray[np.float64]:
     """Non-negative MAP estimate under the Gaussian prior (a Wiener-style solve).
 
     The photo's scale is unknown, so the smoothness solve first sets it from the band every
@@ -100,7 +101,7 @@ def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPr
     what lamps usually do there, instead of extrapolating a curve into the dark.
     """
     n = matrix.shape[-1]
-    first = physics_solve(profile, matrix, gain=gain)
+    first = physics_solve(profile, matrix, smoothness, gain=gain)
     band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
     s = float(first[band].max()) or float(first.max())
     if s <= 0:
