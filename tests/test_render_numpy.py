@@ -1,6 +1,5 @@
 """The numpy twin's images obey the grating equation; photos are linear in the SPD."""
 
-import math
 
 import numpy as np
 import pytest

@@ -32,18 +32,19 @@ NUMPY_SUPERSAMPLE = 4
 __all__ = ["CACHE_DIR", "ENGINES", "cube_key", "render_basis", "basis_cube"]
 
 
-def _physics_fingerprint() -> str:
-    """Hash of the code that makes the pixels, so a changed shader invalidates the cache."""
+def _physics_fingerprint(engine: str) -> str:
+    """Hash of the code that makes this engine's pixels, so a changed shader invalidates the cache."""
+    files = (SHADER, REPO / "training" / "cycles_scene.py") if engine == "cycles" else (
+        Path(grating.__file__), REPO / "training" / "render_numpy.py")
     digest = hashlib.sha256()
-    for path in (SHADER, Path(grating.__file__), REPO / "training" / "render_numpy.py",
-                 REPO / "training" / "cycles_scene.py"):
+    for path in files:
         digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
 
 
 def cube_key(scene: Scene, engine: str, samples: int) -> str:
     payload = {"geometry": scene.geometry_dict(), "preset": scene.preset.to_dict(),
-               "engine": engine, "samples": samples, "physics": _physics_fingerprint()}
+               "engine": engine, "samples": samples, "physics": _physics_fingerprint(engine)}
     blob = json.dumps(payload, sort_keys=True, default=str).encode()
     return f"{scene.preset.name}-{hashlib.sha256(blob).hexdigest()[:12]}"
 

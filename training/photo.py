@@ -21,6 +21,8 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from cd_spectra_addon.core.cameras import CameraProfile
+from cd_spectra_addon.core.capture import Scene
+from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.srgb import srgb_encode
 
 FORMATS = ("exr", "png", "png16", "jpg")
@@ -28,7 +30,7 @@ AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
 
-__all__ = ["FORMATS", "linear_photo", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
+__all__ = ["FORMATS", "linear_photo", "track_mask", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
 
 
 def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: CameraProfile) -> NDArray[np.float64]:
@@ -39,9 +41,21 @@ def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: 
     return (weights.T @ flat).T.reshape(height, width, 3)
 
 
-def expose(image: NDArray[np.float64], exposure: float = 1.0) -> tuple[NDArray[np.float64], float]:
-    """Scale so the brightest value is AUTO_EXPOSURE_LEVEL × exposure; returns (image, gain)."""
-    peak = float(np.max(image))
+def track_mask(scene: Scene) -> NDArray[np.bool_]:
+    """Pixels whose centre sees the tracked area of the disc: where a photographer meters."""
+    width, height = scene.preset.camera.image_size_px
+    px = pixel_diffraction(scene)
+    mask = np.zeros(width * height, dtype=bool)
+    mask[px.index[px.on_tracks]] = True
+    return mask.reshape(height, width)
+
+
+def expose(image: NDArray[np.float64], exposure: float = 1.0,
+           meter: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.float64], float]:
+    """Scale so the brightest metered value is AUTO_EXPOSURE_LEVEL × exposure (a specular glint
+    off the metered area may clip, as it does in a real photo); returns (image, gain)."""
+    metered = image if meter is None or not np.any(meter) else image[meter]
+    peak = float(np.max(metered))
     gain = AUTO_EXPOSURE_LEVEL * float(exposure) / peak if peak > 0 else 0.0
     return image * gain, gain
 
@@ -61,10 +75,11 @@ def synthesize(
     exposure: float = 1.0,
     noise: float = 0.0,
     rng: np.random.Generator | None = None,
+    meter: NDArray[np.bool_] | None = None,
 ) -> tuple[NDArray[np.float64], float]:
     """Sensor-level linear photo (clipped at full scale 1.0) and the exposure gain used."""
     rng = rng if rng is not None else np.random.default_rng(0)
-    image, gain = expose(linear_photo(cube, spd, camera), exposure)
+    image, gain = expose(linear_photo(cube, spd, camera), exposure, meter)
     image = add_noise(image, noise, rng)
     return np.minimum(image, 1.0), gain
 
@@ -85,7 +100,7 @@ def exif_for(focal_length_mm: float, sensor_width_mm: float, image_width_px: int
     return exif.tobytes()
 
 
-def _png16(rgb16: NDArray[np.uint16]) -> bytes:
+def _png16(rgb16: NDArray[np.uint16], level: int = 6) -> bytes:
     """Minimal 16-bit RGB PNG writer (Pillow cannot write 16-bit colour PNGs)."""
     height, width, _ = rgb16.shape
     raw = np.zeros((height, 1 + width * 6), dtype=np.uint8)
@@ -95,11 +110,12 @@ def _png16(rgb16: NDArray[np.uint16]) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
 
     header = struct.pack(">IIBBBBB", width, height, 16, 2, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), 6))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw.tobytes(), level))
             + chunk(b"IEND", b""))
 
 
-def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> bytes:
+def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None,
+                 quality: int = JPEG_QUALITY) -> bytes:
     """File bytes of a sensor-level linear photo in ``fmt``."""
     if fmt == "exr":
         import OpenEXR
@@ -113,21 +129,22 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
             return Path(path).read_bytes()
     encoded = srgb_encode(image)  # clips to [0, 1]
     if fmt == "png16":
-        return _png16(np.rint(encoded * 65535.0).astype(np.uint16))
+        return _png16(np.rint(encoded * 65535.0).astype(np.uint16), level=1)
     rgb8 = np.rint(encoded * 255.0).astype(np.uint8)
     buffer = io.BytesIO()
     if fmt == "png":
-        Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"")
+        Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"", compress_level=1)
     elif fmt == "jpg":
-        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=JPEG_QUALITY, exif=exif or b"")
+        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=int(quality), exif=exif or b"")
     else:
         raise ValueError(f"format must be one of {FORMATS}")
     return buffer.getvalue()
 
 
-def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None) -> None:
+def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None,
+                quality: int = JPEG_QUALITY) -> None:
     """Encode and write atomically (temporary file in the same folder, then rename)."""
-    data = encode_photo(image, fmt, exif)
+    data = encode_photo(image, fmt, exif, quality)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
     try:

@@ -8,24 +8,14 @@ each sample only touches the bands near its lobe centre — ~50× less work than
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import NDArray
 
 from cd_spectra_addon.core import grating
 from cd_spectra_addon.core.capture import Scene
-from cd_spectra_addon.core.spectral_grid import (
-    WAVELENGTH_MAX_NM,
-    WAVELENGTH_MIN_NM,
-    WAVELENGTH_STEP_NM,
-    WAVELENGTHS_NM,
-    hat_integrals,
-)
+from cd_spectra_addon.core.spectral_grid import WAVELENGTH_STEP_NM, WAVELENGTHS_NM, hat_integrals
 
 __all__ = ["render_cube"]
-
-_LOBE_REACH = 7.0  # lobe tails beyond 7 s are < 3e-11 of the peak
 
 
 def render_cube(
@@ -89,56 +79,7 @@ def _accumulate(
     n_sub: int,
 ) -> None:
     n_bands, n_pix = cube.shape
-    common = grating.lobe_factor(frame, optics) / n_sub
-    diffuse = grating.diffuse_base(frame, optics) / n_sub
-    cube += np.outer(areas, np.bincount(sample_pix, weights=diffuse, minlength=n_pix))
-
-    sigma = optics.lobe_sigma
-    lobe_on = np.abs(frame.v) < _LOBE_REACH * sigma
-    # Zero order: the lobe does not move with λ; only samples near the mirror direction count.
-    near = np.flatnonzero(lobe_on & (np.abs(frame.u) < _LOBE_REACH * sigma))
-    if near.size:
-        sub = _take(frame, near)
-        vals = grating.zero_order(_expand(sub), optics, lam, areas) * common[near, None]
-        np.add.at(cube.T, sample_pix[near], vals)
-
-    d_nm = optics.disc.pitch_um * 1e3
-    flat_index: list[NDArray[np.int64]] = []
-    flat_value: list[NDArray[np.float64]] = []
-    lo_reach = lam[0] - WAVELENGTH_STEP_NM
-    hi_reach = lam[-1] + WAVELENGTH_STEP_NM
-    for m in range(1, optics.disc.max_order + 1):
-        s = sigma * d_nm / m
-        reach = _LOBE_REACH * s + WAVELENGTH_STEP_NM
-        n_side = int(math.ceil(reach / WAVELENGTH_STEP_NM))
-        for order in (-m, m):
-            lam_star = d_nm * frame.u / order
-            live = np.flatnonzero(
-                lobe_on & (lam_star > lo_reach - reach) & (lam_star < hi_reach + reach)
-                & grating.in_grating(frame, optics.disc)
-            )
-            if not live.size:
-                continue
-            sub = _take(frame, live)
-            nearest = np.rint((lam_star[live] - lam[0]) / WAVELENGTH_STEP_NM).astype(np.int64)
-            for shift in range(-n_side, n_side + 1):
-                band = nearest + shift
-                ok = (band >= 0) & (band < n_bands)
-                if not np.any(ok):
-                    continue
-                sel = _take(sub, np.flatnonzero(ok))
-                vals = grating.diffracted_order(sel, optics, order, lam[band[ok]]) * common[live[ok]]
-                flat_index.append(band[ok] * n_pix + sample_pix[live[ok]])
-                flat_value.append(vals)
-    if flat_index:
-        index = np.concatenate(flat_index)
-        value = np.concatenate(flat_value)
-        cube += np.bincount(index, weights=value, minlength=n_bands * n_pix).reshape(n_bands, n_pix)
-
-
-def _take(frame: grating.SurfaceFrame, index: NDArray[np.int64]) -> grating.SurfaceFrame:
-    return grating.SurfaceFrame(**{k: v[index] for k, v in frame.__dict__.items()})
-
-
-def _expand(frame: grating.SurfaceFrame) -> grating.SurfaceFrame:
-    return grating.SurfaceFrame(**{k: v[:, None] for k, v in frame.__dict__.items()})
+    sparse = grating.band_radiance_sparse(frame, optics, lam)
+    cube += np.outer(areas, np.bincount(sample_pix, weights=sparse.diffuse_per_nm / n_sub, minlength=n_pix))
+    flat = sparse.band * n_pix + sample_pix[sparse.point]
+    cube += np.bincount(flat, weights=sparse.value / n_sub, minlength=n_bands * n_pix).reshape(n_bands, n_pix)

@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=photo.FORMATS, default="jpg")
     p.add_argument("--noise", type=float, default=0.0, help="shot-noise std at full scale (0.01 = 1%%)")
     p.add_argument("--exposure", type=float, default=1.0,
-                   help="multiplier on auto exposure (brightest pixel at 80%% of full scale)")
+                   help="multiplier on auto exposure (brightest pixel of the tracks at 80%% of full scale)")
     p.add_argument("--camera-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
     p.add_argument("--light-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
     p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
     ext = {"png16": "png"}.get(args.format, args.format)
     rng = np.random.default_rng(args.seed)
+    meter = photo.track_mask(scene)
     written = []
     used: set[str] = set()
     for name, spd in zip(table.names, spds):
@@ -93,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         while stem in used:
             stem += "_"
         used.add(stem)
-        image, gain = photo.synthesize(cube, spd, camera, args.exposure, args.noise, rng)
+        image, gain = photo.synthesize(cube, spd, camera, args.exposure, args.noise, rng, meter)
         path = args.out / f"{stem}.{ext}"
         photo.write_photo(path, image, args.format, exif)
         written.append({"spd": name, "file": path.name,

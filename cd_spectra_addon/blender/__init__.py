@@ -1,4 +1,4 @@
-"""Blender layer (the only part of the add-on that imports bpy): properties, operators, panels.
+"""The Blender layer: everything that imports bpy (operators, panels, light builders, decoders).
 
 Registration goes by sub-module, each with its own ``register``/``unregister`` (the pattern of
 Blender's node_wrangler). A failure half-way unregisters what was already registered and then
@@ -7,9 +7,10 @@ raises, so Blender shows the real error and no half-registered add-on stays behi
 
 from __future__ import annotations
 
-from . import operators, panels, properties
+from . import image_decoder, operators, panels, properties
 
-_MODULES = (properties, operators, panels)
+# image_decoder: Blender's image loader as the core's fallback for photos Pillow cannot read.
+_MODULES = (properties, operators, panels, image_decoder)
 
 
 def register() -> None:

@@ -60,6 +60,8 @@ __all__ = [
     "diffuse_base",
     "in_grating",
     "band_radiance",
+    "SparseBands",
+    "band_radiance_sparse",
 ]
 
 BESSEL_NODES = 32  # trapezoid nodes for J_m: aliasing error ~J_{32-m}(x) < 1e-12 for x < 10
@@ -82,13 +84,33 @@ def bessel_j(m: int, x: ArrayLike) -> NDArray[np.float64]:
     return acc / BESSEL_NODES
 
 
+_J2_STEP = 1e-3
+_J2_MAX_X = 12.0
+_J2_TABLE: dict[int, NDArray[np.float64]] = {}
+
+
+def _bessel_squared(m: int, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """J_m(x)² from a 0.001-step table of the same trapezoid rule (linear interpolation error
+    < 2e-7): the forward matrix evaluates it millions of times per photo."""
+    table = _J2_TABLE.get(m)
+    if table is None:
+        grid = np.arange(0.0, _J2_MAX_X + 2 * _J2_STEP, _J2_STEP)
+        table = _J2_TABLE.setdefault(m, bessel_j(m, grid) ** 2)
+    flat = np.abs(x).ravel()
+    out = np.interp(flat, np.arange(table.size) * _J2_STEP, table)
+    far = flat > _J2_MAX_X
+    if np.any(far):
+        out[far] = bessel_j(m, flat[far]) ** 2
+    return out.reshape(x.shape)
+
+
 def order_efficiency(
     m: int, phase: ArrayLike, profile: str = "sinusoidal", duty: float = 0.31
 ) -> NDArray[np.float64]:
     """|c_m|²: fraction of the reflected light in order m for groove phase x = k n w_in h0."""
     x = np.asarray(phase, dtype=np.float64)
     if profile == "sinusoidal":
-        return bessel_j(abs(m), x) ** 2
+        return _bessel_squared(abs(m), x)
     if profile == "rectangular":
         s2 = np.sin(x) ** 2
         if m == 0:
@@ -337,3 +359,100 @@ def band_radiance(
             lobes = lobes + diffracted_order(expand, optics, order, centers, half_width_nm, lo_nm, hi_nm)
     total = lobes * common + diffuse_base(frame, optics)[..., None] * areas
     return total.reshape(frame.u.shape + np.shape(band_centers_nm))
+
+
+@dataclass(frozen=True)
+class SparseBands:
+    """Band radiance of many points, stored sparsely: the diffracted lobes touch only the few
+    bands near each lobe centre, the diffuse base touches every band equally."""
+
+    point: NDArray[np.int64]  # COO entries of the lobes (zero and diffracted orders)
+    band: NDArray[np.int64]
+    value: NDArray[np.float64]
+    diffuse_per_nm: NDArray[np.float64]  # (n_points,) multiply by each band's hat area
+    areas: NDArray[np.float64]  # (n_bands,) hat areas
+    n_points: int
+
+    def dense(self) -> NDArray[np.float64]:
+        """(n_points, n_bands) radiance."""
+        n_bands = self.areas.size
+        flat = np.bincount(self.point * n_bands + self.band, weights=self.value,
+                           minlength=self.n_points * n_bands).reshape(self.n_points, n_bands)
+        return flat + self.diffuse_per_nm[:, None] * self.areas[None, :]
+
+
+_LOBE_REACH = 7.0  # lobe tails beyond 7 standard deviations are < 3e-11 of the peak
+
+
+def band_radiance_sparse(
+    frame: SurfaceFrame,
+    optics: GratingOptics,
+    band_centers_nm: ArrayLike,
+    half_width_nm: float = WAVELENGTH_STEP_NM,
+    lo_nm: float = WAVELENGTH_MIN_NM,
+    hi_nm: float = WAVELENGTH_MAX_NM,
+) -> SparseBands:
+    """Same values as :func:`band_radiance` for 1-D frames on a regular band grid, evaluating
+    each lobe only in the bands it reaches (~50× less work for a 81-band cube)."""
+    lam = np.asarray(band_centers_nm, dtype=np.float64)
+    step = float(lam[1] - lam[0]) if lam.size > 1 else half_width_nm
+    if lam.size > 1 and not np.allclose(np.diff(lam), step):
+        raise ValueError("band_radiance_sparse needs a regular band grid")
+    n_bands = lam.size
+    areas = hat_integrals(lam, half_width_nm, lo_nm, hi_nm)
+    n_points = frame.u.size
+    common = lobe_factor(frame, optics)
+    sigma = optics.lobe_sigma
+    lobe_on = (np.abs(frame.v) < _LOBE_REACH * sigma) & (common > 0)
+    points: list[NDArray[np.int64]] = []
+    bands: list[NDArray[np.int64]] = []
+    values: list[NDArray[np.float64]] = []
+
+    near = np.flatnonzero(lobe_on & (np.abs(frame.u) < _LOBE_REACH * sigma))
+    if near.size:
+        sub = _take(frame, near)
+        vals = zero_order(_column(sub), optics, lam[None, :], areas[None, :]) * common[near, None]
+        points.append(np.repeat(near, n_bands))
+        bands.append(np.tile(np.arange(n_bands), near.size))
+        values.append(vals.ravel())
+
+    d_nm = optics.disc.pitch_um * 1e3
+    tracks = in_grating(frame, optics.disc) & lobe_on
+    for m in range(1, optics.disc.max_order + 1):
+        s = sigma * d_nm / m
+        reach = _LOBE_REACH * s + half_width_nm
+        n_side = int(np.ceil(reach / step))
+        for order in (-m, m):
+            lam_star = d_nm * frame.u / order
+            live = np.flatnonzero(tracks & (lam_star > lam[0] - reach) & (lam_star < lam[-1] + reach))
+            if not live.size:
+                continue
+            sub = _take(frame, live)
+            nearest = np.rint((lam_star[live] - lam[0]) / step).astype(np.int64)
+            shifts = np.arange(-n_side, n_side + 1)
+            band = nearest[:, None] + shifts[None, :]
+            ok = (band >= 0) & (band < n_bands)
+            rows, cols = np.nonzero(ok)
+            sel = _take(sub, rows)
+            vals = diffracted_order(sel, optics, order, lam[band[rows, cols]], half_width_nm, lo_nm, hi_nm)
+            points.append(live[rows])
+            bands.append(band[rows, cols])
+            values.append(vals * common[live[rows]])
+
+    empty_i = np.zeros(0, dtype=np.int64)
+    return SparseBands(
+        point=np.concatenate(points) if points else empty_i,
+        band=np.concatenate(bands) if bands else empty_i,
+        value=np.concatenate(values) if values else np.zeros(0),
+        diffuse_per_nm=diffuse_base(frame, optics),
+        areas=areas,
+        n_points=n_points,
+    )
+
+
+def _take(frame: SurfaceFrame, index: NDArray[np.int64]) -> SurfaceFrame:
+    return SurfaceFrame(**{k: v[index] for k, v in frame.__dict__.items()})
+
+
+def _column(frame: SurfaceFrame) -> SurfaceFrame:
+    return SurfaceFrame(**{k: v[:, None] for k, v in frame.__dict__.items()})

@@ -1,0 +1,267 @@
+"""Photo → SPD: the whole inverse, with the reasons a result should or should not be trusted.
+
+1. load and linearise (:mod:`.images`), focal length in pixels from EXIF or the preset;
+2. capture geometry and the λ₁ profile (:mod:`.analysis`), optional calibration gains;
+3. physics: a non-negative MAP solve against the forward matrix under the synthetic prior;
+4. the learned model (:mod:`.model`) refines it into the final SPD and its uncertainty;
+5. confidence from what could go wrong — clipping, missing bins, a geometry the fit could not
+   explain, an SPD that does not reproduce the photo — each with a plain-language warning;
+6. colour: xy, CCT, Duv and the emission colour in the scene's working space (:mod:`.colour`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import colour
+from .analysis import Analysis, analyse
+from .calibration import Calibration, load_calibration
+from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
+from .capture import Preset, load_preset
+from .errors import CDSpectraError, NoDiscError, PhotoError
+from .forward import feature_matrix
+from .geometry import GeometryFit
+from .images import LinearImage, load_photo
+from .model import SpectralModel, load_model, model_inputs
+from .profile import Profile
+from .result import DiscFit, Estimate
+from .solve import GaussianPrior, physics_solve, prior_solve
+from .spectral_grid import WAVELENGTHS_NM
+
+MAX_SIDE = 1024
+GENERIC = "generic"
+MIN_VALID_400_700 = 0.5  # share of 400–700 nm λ₁ bins that must be usable
+Progress = Callable[[float, str], None]
+
+__all__ = ["MAX_SIDE", "GENERIC", "focal_px_for", "estimate_image", "estimate_photo", "camera_for"]
+
+
+def focal_px_for(image: LinearImage, preset: Preset) -> tuple[float, str]:
+    """Focal length in loaded pixels and where it came from.
+
+    EXIF FocalLength × FocalPlaneXResolution is exact for the sensor's pixels; the 35 mm
+    equivalent assumes the long side spans 36 mm; otherwise the preset's field of view.
+    """
+    height, width = image.rgb.shape[:2]
+    exif = image.exif
+    if exif.focal_length_mm and exif.focal_plane_px_per_mm:
+        value = exif.focal_length_mm * exif.focal_plane_px_per_mm / image.scale
+        if math.isfinite(value) and value > 0:
+            return value, "exif"
+    if exif.focal_length_35mm:
+        value = exif.focal_length_35mm / 36.0 * max(width, height)
+        if math.isfinite(value) and value > 0:
+            return value, "exif-35mm"
+    cam = preset.camera
+    return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
+
+
+def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
+    """The sensitivities to solve with and whether they are the generic (unknown camera) ones."""
+    if name == GENERIC:
+        if model is None or "generic_camera" not in model.metadata:
+            raise CDSpectraError("the generic camera profile comes with the model, which is not available")
+        return CameraProfile(GENERIC, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
+    return load_camera(name), False
+
+
+def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float64]] | None:
+    if model is None or "prior" not in model.metadata:
+        return None
+    cached = model.metadata.get("_prior_cache")
+    if cached is None:
+        p = model.metadata["prior"]
+        prior = GaussianPrior(np.asarray(p["mean"]), np.asarray(p["covariance"]))
+        cached = (prior, prior.precision())
+        model.metadata["_prior_cache"] = cached
+    return cached
+
+
+def _calibrated(profile: Profile, calibration: Calibration | None) -> Profile:
+    if calibration is None:
+        return profile
+    gains = calibration.gains
+    return replace(profile, values=profile.values / gains, noise=profile.noise / gains)
+
+
+def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
+                image: LinearImage | None, generic: bool, focal_source: str) -> tuple[float, list[str], dict]:
+    """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
+    warnings: list[str] = []
+    score = 1.0
+    lam = profile.lambda_nm
+    core = (lam >= 400) & (lam <= 700)
+    coverage = float(np.mean(profile.valid[core]))
+    sat_core = float(np.mean(profile.saturated_fraction[core] > 0.05))
+    # Re-render the profile from the estimate and compare with the photo.
+    valid = profile.valid
+    pred = np.einsum("bcl,l->bc", matrix, spd)
+    meas = profile.values
+    if np.any(valid):
+        p, m = pred[valid], meas[valid]
+        scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
+        residual = float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
+    else:
+        residual = 1.0
+    stats = {"profile_residual": residual, "coverage_400_700": coverage, "saturated_bins": sat_core,
+             "geometry_residual": float(analysis.fit.residual)}
+    if sat_core > 0.02:
+        warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
+        score *= max(0.2, 1.0 - 2.0 * sat_core)
+    if coverage < 0.95:
+        warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — the disc may be cut off "
+                        "by the frame, or the lamp and camera are too far off the disc's axis")
+        score *= max(0.1, coverage)
+    if analysis.fit.residual > 0.15:
+        warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "
+                        "lamp are on the disc's axis and the preset matches the capture")
+        score *= max(0.2, 1.0 - 2.0 * (analysis.fit.residual - 0.15))
+    if residual > 0.05:
+        warnings.append("the recovered spectrum does not reproduce the photo well — treat it as approximate")
+        score *= max(0.2, 1.0 - 5.0 * (residual - 0.05))
+    peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
+    noise = float(np.median(profile.noise[valid])) if np.any(valid) else 1.0
+    snr = peak / max(noise, 1e-12)
+    stats["snr"] = snr
+    if snr < 30:
+        warnings.append("low signal: the rainbow is dim or noisy — use a longer exposure or a brighter lamp")
+        score *= max(0.2, snr / 30)
+    if generic:
+        warnings.append("generic camera profile: pick your camera (or calibrate) for the best accuracy")
+        score *= 0.85
+    if focal_source == "preset":
+        warnings.append("no focal length in the photo's EXIF: assuming the preset's field of view")
+        score *= 0.8
+    if image is not None and image.is_grey:
+        warnings.append("the photo is greyscale: colour is what separates wavelengths — use the colour photo")
+        score *= 0.3
+    return float(np.clip(score, 0.0, 1.0)), warnings, stats
+
+
+def estimate_image(
+    image: LinearImage,
+    *,
+    preset: str | Preset = "cd-default",
+    camera: str = DEFAULT_CAMERA,
+    calibration: str | Calibration | None = None,
+    working_space: str = "Linear Rec.709",
+    model: SpectralModel | None | str = "shipped",
+    focal_px: float | None = None,
+    progress: Progress | None = None,
+    method: str = "model",
+    fit: GeometryFit | None = None,
+) -> Estimate:
+    """Estimate from an already loaded photo (see :func:`estimate_photo`).
+
+    ``method``: "model" (physics + prior + network, the product), "prior" (physics under the
+    Gaussian prior only) or "physics" (smoothness-regularised physics only) — the benchmark's
+    operating points.
+    """
+    if method not in ("model", "prior", "physics"):
+        raise CDSpectraError(f"unknown method {method!r}")
+    t0 = time.perf_counter()
+    report = progress or (lambda _f, _m: None)
+    preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
+    mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
+    cam, generic = camera_for(camera, mdl)
+    cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+    rgb = np.asarray(image.rgb, dtype=np.float64)
+    if image.is_grey:
+        cam = CameraProfile(cam.name, np.repeat(cam.sensitivities.sum(axis=1, keepdims=True) / 3.0, 3, axis=1))
+    source = "given"
+    if focal_px is None:
+        focal_px, source = focal_px_for(image, preset_obj)
+    report(0.2, "Finding the disc")
+    saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
+    analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
+    profile = _calibrated(analysis.profile, cal)
+    if int(np.sum(profile.valid)) < 10 or analysis.fit.residual > 0.6:
+        raise NoDiscError(f"no CD rainbow found in {Path(image.path).name or 'the photo'}: photograph the disc "
+                          "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
+    report(0.6, "Solving for the spectrum")
+    t2 = time.perf_counter()
+    matrix = feature_matrix(analysis.response, cam)
+    prior = _prior(mdl) if method != "physics" else None
+    if prior is not None:
+        e_phys = prior_solve(profile, matrix, prior[0], precision=prior[1])
+    else:
+        e_phys = physics_solve(profile, matrix)
+    if not np.any(e_phys > 0):
+        raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
+    sigma = analysis.scene.preset.light.lobe_sigma
+    if mdl is not None and method == "model":
+        x = model_inputs(profile, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
+        spd, std = mdl.predict(x)
+    else:
+        spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
+    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0)
+    if spd.max() <= 0:
+        spd = e_phys / e_phys.max()
+    spd = spd / spd.max()
+    std = np.nan_to_num(std, nan=0.25, posinf=1.0)
+    t3 = time.perf_counter()
+    report(0.9, "Colour")
+    confidence, warnings, stats = _confidence(profile, matrix, spd, analysis, image, generic, source)
+    xyz = colour.spd_to_xyz(spd)
+    xy = colour.xyz_to_xy(xyz)
+    cct, duv = colour.cct_duv(xy)
+    light = colour.light_colour(spd, working_space)
+    if light.out_of_gamut:
+        warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
+    fit = analysis.fit
+    height, width = rgb.shape[:2]
+    s = image.scale
+    disc = DiscFit(
+        center_px=((fit.center_px[1] + 0.5) * s - 0.5, (fit.center_px[0] + 0.5) * s - 0.5),
+        radius_px=preset_obj.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
+        hole_radius_px=preset_obj.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
+        px_per_mm=focal_px / fit.distance_mm * s,
+    )
+    t4 = time.perf_counter()
+    timing = {"load": 0.0, **analysis.timing_ms, "solve": (t3 - t2) * 1e3, "colour": (t4 - t3) * 1e3,
+              "total": (t4 - t0) * 1e3}
+    report(1.0, "Done")
+    return Estimate(
+        spd=spd, spd_std=std, xy=(float(xy[0]), float(xy[1])), cct_k=cct, duv=duv,
+        rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
+        disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
+        calibration=None if cal is None else cal.name,
+        model_version=(mdl.version if mdl else "") + ("" if method == "model" else f" ({method} only)"),
+        working_space=working_space,
+        extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
+               "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
+               "ring_center_px": [(fit.ring_center_px[1] + 0.5) * s - 0.5, (fit.ring_center_px[0] + 0.5) * s - 0.5]},
+        wavelength_nm=WAVELENGTHS_NM.copy(),
+    )
+
+
+def estimate_photo(
+    path: str | Path,
+    *,
+    preset: str | Preset = "cd-default",
+    camera: str = DEFAULT_CAMERA,
+    calibration: str | Calibration | None = None,
+    working_space: str = "Linear Rec.709",
+    model: SpectralModel | None | str = "shipped",
+    progress: Progress | None = None,
+    method: str = "model",
+) -> Estimate:
+    """The lamp's SPD from a CD photo (JPEG/PNG/TIFF/EXR). Raises CDSpectraError subclasses with
+    a message for the user on bad input; never returns NaN."""
+    report = progress or (lambda _f, _m: None)
+    report(0.0, "Reading the photo")
+    t0 = time.perf_counter()
+    image = load_photo(path, max_side=MAX_SIDE)
+    load_ms = (time.perf_counter() - t0) * 1e3
+    result = estimate_image(image, preset=preset, camera=camera, calibration=calibration,
+                            working_space=working_space, model=model, progress=progress, method=method)
+    result.timing_ms["load"] = load_ms
+    result.timing_ms["total"] += load_ms
+    return result

@@ -1,0 +1,256 @@
+"""Capture geometry of a photo: where the disc is and where camera and lamp stood.
+
+Three steps, cheapest first:
+1. the centre of the ring pattern, from the photo's 180° symmetry (FFT autoconvolution, refined
+   to sub-pixel) — a good start for the disc centre;
+2. the camera's focal length in pixels (EXIF, else the preset's field of view) — for a coaxial
+   lamp this alone fixes λ₁ at every pixel, whatever the distance;
+3. a fit of the pose (disc centre, lamp offset beside the lens, disc tilt, lamp size σ) that
+   makes the photo most self-consistent: pixels that share λ₁ must share colour once divided
+   by the lobe's visibility. A wrong centre mixes rings of different colour in one λ₁ bin; a
+   wrong lamp position predicts light where the photo is dark. No spectrum is needed for this.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .capture import Camera, Light, Pose, Preset, Scene
+from .diffraction import pixel_diffraction
+from .profile import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
+
+FIT_SIDE = 160  # the pose is fitted on an image of about this size
+__all__ = ["GeometryFit", "symmetry_centre", "scene_for", "consistency", "fit_geometry", "box_downsample"]
+
+
+@dataclass(frozen=True)
+class GeometryFit:
+    center_px: tuple[float, float]  # disc centre (row, col) in the image given to fit_geometry
+    ring_center_px: tuple[float, float]  # where the rings are centred (lamp/camera "midpoint foot")
+    lobe_sigma: float
+    focal_px: float
+    distance_mm: float
+    residual: float  # share of the photo's energy the geometry cannot explain (0 = perfect)
+    symmetry_center_px: tuple[float, float]
+    evaluations: int
+
+    def scene(self, preset: Preset, image_size: tuple[int, int]) -> Scene:
+        return scene_for(preset, image_size, self.focal_px, self.center_px, self.ring_center_px,
+                         self.lobe_sigma, self.distance_mm)
+
+
+def box_downsample(image: NDArray[np.floating], factor: int) -> NDArray[np.float64]:
+    """Mean over factor × factor blocks (trailing rows/columns dropped)."""
+    if factor <= 1:
+        return np.asarray(image, dtype=np.float64)
+    h, w = image.shape[0] // factor * factor, image.shape[1] // factor * factor
+    a = np.asarray(image[:h, :w], dtype=np.float64)
+    return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
+
+
+def symmetry_centre(lum: NDArray[np.floating]) -> tuple[float, float]:
+    """Centre of 180° symmetry (row, col) of a non-negative image.
+
+    The autoconvolution (I * I)(s) peaks at s = 2c when I is point-symmetric about c.
+    """
+    img = np.asarray(lum, dtype=np.float64)
+    img = img - np.median(img)
+    img = np.clip(img, 0, None)
+    h, w = img.shape
+    spec = np.fft.rfft2(img, s=(2 * h, 2 * w))
+    conv = np.fft.irfft2(spec * spec, s=(2 * h, 2 * w))
+    peak = np.unravel_index(int(np.argmax(conv)), conv.shape)
+    r, c = (float(p) + _parabola(conv, peak, axis) for axis, p in enumerate(peak))
+    return r / 2.0, c / 2.0
+
+
+def _parabola(a: NDArray[np.float64], peak: tuple[int, ...], axis: int) -> float:
+    idx = list(peak)
+    if not 0 < idx[axis] < a.shape[axis] - 1:
+        return 0.0
+    idx[axis] -= 1
+    left = a[tuple(idx)]
+    idx[axis] += 2
+    right = a[tuple(idx)]
+    mid = a[peak]
+    denom = left - 2 * mid + right
+    return 0.0 if denom >= 0 else 0.5 * (left - right) / denom
+
+
+def scene_for(
+    preset: Preset,
+    image_size: tuple[int, int],
+    focal_px: float,
+    center_px: tuple[float, float],
+    ring_center_px: tuple[float, float] | None = None,
+    lobe_sigma: float | None = None,
+    distance_mm: float | None = None,
+) -> Scene:
+    """The Scene seen in a photo of ``image_size`` (width, height) with the disc centre at
+    ``center_px`` and the rings centred at ``ring_center_px`` (row, col; default: the disc centre).
+
+    The camera looks straight down (its foot is the image centre). In the small-angle picture
+    the rings are centred on the point m of the disc plane where the lamp's and the camera's
+    feet balance, m = (D_L·c + D·l)/(D + D_L); so the lamp's foot follows from m and c. A disc
+    tilt moves m the same way to first order and is absorbed into it.
+    """
+    width, height = image_size
+    dist = float(distance_mm or preset.camera.distance_mm)
+    cam = Camera(distance_mm=dist, focal_length_mm=float(focal_px), sensor_width_mm=float(width),
+                 image_size_px=(int(width), int(height)))
+    lx, ly, lz = preset.light.position_mm
+    # A lamp beside the lens moves with the camera; a distant lamp stays where it is.
+    attached = math.hypot(lx, ly) < 60.0 and abs(lz - preset.camera.distance_mm) < 60.0
+    light_z = lz + (dist - preset.camera.distance_mm if attached else 0.0)
+
+    def disc_mm(rc: tuple[float, float]) -> NDArray[np.float64]:
+        """Disc-plane position (mm, x right, y up) of an image point, camera foot at 0."""
+        return np.array([rc[1] - (width / 2.0 - 0.5), (height / 2.0 - 0.5) - rc[0]]) * dist / focal_px
+
+    centre = disc_mm(center_px)
+    ring = centre if ring_center_px is None else disc_mm(ring_center_px)
+    light_foot = ring + ring * (light_z / dist)  # l = m + (m − c)·D_L/D with c = 0
+    if ring_center_px is None:
+        light_foot = np.array([lx, ly])  # nominal lamp position relative to the camera foot
+        if not attached:
+            light_foot = np.array([lx, ly]) + centre
+    light = Light(position_mm=(0.0, 0.0, light_z), lobe_sigma=float(lobe_sigma or preset.light.lobe_sigma),
+                  intensity=preset.light.intensity)
+    pose = Pose(camera_offset_mm=tuple(-centre), light_offset_mm=tuple(light_foot - centre))
+    return Scene(replace(preset, camera=cam, light=light), pose)
+
+
+def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = None) -> float:
+    """Share of the photo's energy on the disc that I = A(λ₁)·visibility cannot explain,
+    with A fitted per λ₁ bin and channel by least squares."""
+    h, w, _ = rgb.shape
+    px = pixel_diffraction(scene)
+    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
+    b = np.floor((px.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
+    inside = px.on_tracks & (b >= 0) & (b < N_FEATURES)
+    flat = rgb.reshape(-1, 3)
+    vals = flat[px.index]
+    energy = float(np.sum(vals ** 2)) if total is None else total
+    if energy <= 0:
+        return 1.0
+    bi, vis, v = b[inside], px.visibility[inside], vals[inside]
+    vv = np.bincount(bi, weights=vis * vis, minlength=N_FEATURES)
+    explained = 0.0
+    for c in range(3):
+        vi = np.bincount(bi, weights=vis * v[:, c], minlength=N_FEATURES)
+        explained += float(np.sum(np.divide(vi * vi, vv, out=np.zeros_like(vi), where=vv > 1e-12)))
+    return 1.0 - explained / energy
+
+
+def _nelder_mead(f, x0: NDArray[np.float64], steps: NDArray[np.float64], max_evals: int,
+                 tol: float = 1e-6) -> tuple[NDArray[np.float64], float, int]:
+    n = x0.size
+    simplex = np.vstack([x0] + [x0 + np.eye(n)[i] * steps[i] for i in range(n)])
+    values = np.array([f(x) for x in simplex])
+    evals = n + 1
+    while evals < max_evals:
+        order = np.argsort(values)
+        simplex, values = simplex[order], values[order]
+        if values[-1] - values[0] < tol * max(abs(values[0]), 1e-12):
+            break
+        centroid = simplex[:-1].mean(axis=0)
+        xr = centroid + (centroid - simplex[-1])
+        fr = f(xr)
+        evals += 1
+        if fr < values[0]:
+            xe = centroid + 2.0 * (centroid - simplex[-1])
+            fe = f(xe)
+            evals += 1
+            simplex[-1], values[-1] = (xe, fe) if fe < fr else (xr, fr)
+        elif fr < values[-2]:
+            simplex[-1], values[-1] = xr, fr
+        else:
+            xc = centroid + 0.5 * (simplex[-1] - centroid)
+            fc = f(xc)
+            evals += 1
+            if fc < values[-1]:
+                simplex[-1], values[-1] = xc, fc
+            else:
+                simplex[1:] = simplex[0] + 0.5 * (simplex[1:] - simplex[0])
+                values[1:] = [f(x) for x in simplex[1:]]
+                evals += n
+    best = int(np.argmin(values))
+    return simplex[best], float(values[best]), evals
+
+
+def _axis_of_arcs(lum: NDArray[np.float64], centre: tuple[float, float], r_min: float, r_max: float
+                  ) -> tuple[float, float]:
+    """Angle of the line the rainbow concentrates on, and how strongly (0 = full rings, 1 = two
+    thin streaks), from the second angular harmonic of the energy around ``centre``."""
+    rows, cols = np.indices(lum.shape)
+    dy, dx = rows - centre[0], cols - centre[1]
+    r = np.hypot(dx, dy)
+    sel = (r >= r_min) & (r <= r_max)
+    w = lum[sel]
+    total = float(w.sum())
+    if total <= 0:
+        return 0.0, 0.0
+    phase = np.exp(2j * np.arctan2(-dy[sel], dx[sel]))
+    harmonic = complex(np.sum(w * phase)) / total
+    return 0.5 * math.atan2(harmonic.imag, harmonic.real), abs(harmonic)
+
+
+def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
+                 max_evals: int = 150, distance_mm: float | None = None) -> GeometryFit:
+    """Fit disc centre, ring centre and lamp size to a linear photo (coordinates of ``rgb``)."""
+    height, width, _ = rgb.shape
+    factor = max(1, int(round(max(height, width) / FIT_SIDE)))
+    small = box_downsample(rgb, factor)
+    sh, sw, _ = small.shape
+    scale = 1.0 / factor
+    f_small = focal_px * scale
+    dist = float(distance_mm or preset.camera.distance_mm)
+    lum = small.sum(axis=2)
+    sym = symmetry_centre(lum)
+    total = float(np.sum(small ** 2))
+    sigma0 = preset.light.lobe_sigma
+    px_per_mm = f_small / dist
+
+    def cost_at(centre: tuple[float, float], ring: tuple[float, float], log_sigma: float) -> float:
+        scene = scene_for(preset, (sw, sh), f_small, centre, ring, sigma0 * math.exp(log_sigma), dist)
+        return consistency(small, scene, total)
+
+    # Where is the disc centre? On the line the arcs follow, at a distance the fit decides.
+    angle, strength = _axis_of_arcs(lum, sym, 20 * px_per_mm, 58 * px_per_mm)
+    axis = np.array([-math.sin(angle), math.cos(angle)])  # (row, col) direction
+    candidates = [0.0] if strength < 0.05 else [0.0, 1, -1, 2, -2, 4, -4, 8, -8, 16, -16]
+    best_t, best_cost = 0.0, math.inf
+    evals = 0
+    for t in candidates:
+        centre = (sym[0] + t * px_per_mm * axis[0], sym[1] + t * px_per_mm * axis[1])
+        c = cost_at(centre, sym, 0.0)
+        evals += 1
+        if c < best_cost:
+            best_t, best_cost = t, c
+    start = np.array([sym[0] + best_t * px_per_mm * axis[0], sym[1] + best_t * px_per_mm * axis[1],
+                      sym[0], sym[1], 0.0])
+
+    def cost(x: NDArray[np.float64]) -> float:
+        return cost_at((x[0], x[1]), (x[2], x[3]), x[4])
+
+    steps = np.array([0.5, 0.5, 0.3, 0.3, 0.3])
+    x, value, more = _nelder_mead(cost, start, steps, max_evals)
+    evals += more
+
+    def to_full(rc: tuple[float, float]) -> tuple[float, float]:
+        return ((rc[0] + 0.5) / scale - 0.5, (rc[1] + 0.5) / scale - 0.5)
+
+    return GeometryFit(
+        center_px=to_full((x[0], x[1])),
+        ring_center_px=to_full((x[2], x[3])),
+        lobe_sigma=float(sigma0 * math.exp(x[4])),
+        focal_px=float(focal_px),
+        distance_mm=dist,
+        residual=value,
+        symmetry_center_px=to_full(sym),
+        evaluations=evals,
+    )

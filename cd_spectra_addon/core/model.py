@@ -1,0 +1,162 @@
+"""The learned half of the inverse: model inputs, and the ONNX model that maps them to an SPD.
+
+The network sees what physics already knows — the λ₁ profile (normalised), which bins are
+valid, saturated or noisy, the camera's sensitivities, the physics-only solution and the fitted
+lamp size — and returns a non-negative, peak-normalised SPD with a per-wavelength uncertainty.
+The input layout is defined here once, for training and for inference; its hash is stored in
+the model's metadata so a model built for another layout is refused instead of misread.
+
+onnxruntime is imported, and the session created, on first use only (enabling the add-on must
+stay instant), then cached.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import ModelError
+from .profile import FEATURE_LAMBDA_NM, N_FEATURES, Profile
+from .spectral_grid import N_BANDS, WAVELENGTHS_NM
+
+MODEL_DIR = Path(__file__).resolve().parent.parent.parent / "models"
+MODEL_NAME = "cd_spectra"
+SIGMA_REF = 0.003
+
+# (name, length) in order: the model input vector.
+INPUT_LAYOUT: tuple[tuple[str, int], ...] = (
+    ("profile", N_FEATURES * 3),  # values / peak valid value, 0 where invalid
+    ("valid", N_FEATURES),
+    ("snr", N_FEATURES),  # log10(peak / noise) / 4, 0 where invalid
+    ("saturated", N_FEATURES),
+    ("camera", N_BANDS * 3),  # sensitivities, max 1
+    ("physics", N_BANDS),  # physics-only SPD, peak 1
+    ("scalars", 3),  # log(σ / 0.003), generic-camera flag, geometry residual
+)
+INPUT_SIZE = sum(n for _, n in INPUT_LAYOUT)
+
+__all__ = ["MODEL_DIR", "INPUT_LAYOUT", "INPUT_SIZE", "layout_hash", "model_inputs", "SpectralModel",
+           "load_model"]
+
+
+def layout_hash() -> str:
+    blob = json.dumps({"layout": INPUT_LAYOUT, "features": FEATURE_LAMBDA_NM.tolist(),
+                       "wavelengths": WAVELENGTHS_NM.tolist()}).encode()
+    return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def model_inputs(
+    profile: Profile,
+    camera_sensitivities: NDArray[np.float64],
+    physics_spd: NDArray[np.float64],
+    lobe_sigma: float,
+    generic_camera: bool,
+    geometry_residual: float,
+) -> NDArray[np.float32]:
+    """The input vector for one photo (float32, INPUT_SIZE)."""
+    values = np.where(profile.valid[:, None], profile.values, 0.0)
+    peak = float(np.max(values)) if np.any(profile.valid) else 0.0
+    scale = peak if peak > 0 else 1.0
+    noise = np.mean(profile.noise, axis=1)
+    snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
+    phys_peak = float(np.max(physics_spd))
+    physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
+    parts = [
+        (values / scale).ravel(),
+        profile.valid.astype(np.float64),
+        snr,
+        profile.saturated_fraction,
+        np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
+        physics,
+        np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),
+                  float(np.clip(geometry_residual, 0.0, 1.0))]),
+    ]
+    out = np.concatenate(parts).astype(np.float32)
+    return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+@dataclass
+class SpectralModel:
+    """A loaded model: the onnxruntime session and its metadata."""
+
+    path: Path
+    metadata: dict[str, Any]
+    _session: Any
+
+    @property
+    def version(self) -> str:
+        return str(self.metadata.get("version", ""))
+
+    def predict(self, inputs: NDArray[np.float32]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(spd, std) for a batch (N, INPUT_SIZE) or one input vector."""
+        x = np.asarray(inputs, dtype=np.float32)
+        single = x.ndim == 1
+        x = np.atleast_2d(x)
+        if x.shape[1] != INPUT_SIZE:
+            raise ModelError(f"model input has {x.shape[1]} values, expected {INPUT_SIZE}")
+        spd, log_std = self._session.run(["spd", "log_std"], {"inputs": x})
+        spd = np.nan_to_num(np.asarray(spd, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+        std = np.exp(np.clip(np.asarray(log_std, dtype=np.float64), -12.0, 3.0))
+        return (spd[0], std[0]) if single else (spd, std)
+
+
+_CACHE: dict[Path, SpectralModel] = {}
+_LOCK = threading.Lock()
+
+
+def _read_metadata(onnx_path: Path) -> dict[str, Any]:
+    side = onnx_path.with_suffix(".json")
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise ModelError(f"model metadata {side.name} is missing next to {onnx_path.name}") from exc
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ModelError(f"model metadata {side.name} is unreadable: {exc}") from exc
+    if not isinstance(meta, dict):
+        raise ModelError(f"model metadata {side.name} is not a JSON object")
+    if meta.get("layout_hash") != layout_hash():
+        raise ModelError(
+            f"model {onnx_path.name} was built for another input layout "
+            f"({meta.get('layout_hash')!r}, this add-on needs {layout_hash()!r}); reinstall the add-on or rebuild the model")
+    return meta
+
+
+def load_model(path: str | Path | None = None) -> SpectralModel:
+    """The model at ``path`` (default: the shipped one), loaded once per process."""
+    onnx_path = Path(path) if path is not None else MODEL_DIR / f"{MODEL_NAME}.onnx"
+    onnx_path = onnx_path.resolve()
+    with _LOCK:
+        cached = _CACHE.get(onnx_path)
+        if cached is not None:
+            return cached
+        if not onnx_path.is_file():
+            raise ModelError(f"model file {onnx_path} is missing; run `make model` or reinstall the add-on")
+        meta = _read_metadata(onnx_path)
+        try:
+            import onnxruntime as ort  # lazy: seconds of import time nobody should pay at enable
+        except ImportError as exc:
+            raise ModelError("onnxruntime is not available; install the extension build for your platform") from exc
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = 1
+        options.inter_op_num_threads = 1
+        options.log_severity_level = 3
+        try:
+            session = ort.InferenceSession(str(onnx_path), sess_options=options,
+                                           providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types for bad files
+            raise ModelError(f"model file {onnx_path.name} is not a valid ONNX model: {exc}") from exc
+        inputs = {i.name: i.shape for i in session.get_inputs()}
+        outputs = {o.name for o in session.get_outputs()}
+        if set(inputs) != {"inputs"} or inputs["inputs"][-1] != INPUT_SIZE or not {"spd", "log_std"} <= outputs:
+            raise ModelError(f"model file {onnx_path.name} does not have the inputs/outputs this add-on expects")
+        model = SpectralModel(path=onnx_path, metadata=meta, _session=session)
+        _CACHE[onnx_path] = model
+        return model

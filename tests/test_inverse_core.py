@@ -1,0 +1,143 @@
+"""The inverse's building blocks against independent truths (numpy twin renders, scipy)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import nnls as scipy_nnls
+
+from cd_spectra_addon.core import forward, geometry, profile, solve
+from cd_spectra_addon.core.calibration import daylight_spd, fit_gains, known_lamp_spd, planck_spd
+from cd_spectra_addon.core.cameras import load_camera
+from cd_spectra_addon.core.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.diffraction import pixel_diffraction
+from cd_spectra_addon.core.nnls import nnls_normal
+from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from training import photo
+from training.render_numpy import render_cube
+
+CAMERA = load_camera("Canon_EOS_5D_Mark_III")
+
+
+@pytest.fixture(scope="module")
+def nominal():
+    scene = Scene(load_preset("cd-default").with_image_size(192))
+    return scene, render_cube(scene, supersample=3)
+
+
+def _photo(cube, spd, scene, noise=0.0, seed=0):
+    img, _ = photo.synthesize(cube, spd, CAMERA, 1.0, noise, np.random.default_rng(seed), photo.track_mask(scene))
+    return img
+
+
+def test_symmetry_centre_is_subpixel():
+    rows, cols = np.indices((120, 140))
+    for centre in [(60.3, 70.7), (55.0, 81.25)]:
+        r = np.hypot(rows - centre[0], cols - centre[1])
+        img = np.exp(-0.5 * ((r - 30) / 2.0) ** 2) + 0.5 * np.exp(-0.5 * ((r - 45) / 3.0) ** 2)
+        found = geometry.symmetry_centre(img)
+        assert abs(found[0] - centre[0]) < 0.05 and abs(found[1] - centre[1]) < 0.05
+
+
+def test_fast_untilted_path_matches_the_general_ray_caster():
+    base = load_preset("cd-default").with_image_size(96)
+    flat = pixel_diffraction(Scene(base, Pose((2.0, -1.0), (5.0, 3.0))))
+    general = pixel_diffraction(Scene(base, Pose((2.0, -1.0), (5.0, 3.0), (1e-9, 0.0))))
+    assert np.array_equal(flat.index, general.index)
+    assert np.max(np.abs(flat.lambda1_nm - general.lambda1_nm)) < 1e-6
+    assert np.max(np.abs(flat.visibility - general.visibility)) < 1e-6
+
+
+def test_a_single_line_lands_in_its_lambda1_bin(nominal):
+    scene, cube = nominal
+    spd = np.zeros(81)
+    spd[34] = 1.0  # 550 nm
+    prof = profile.extract_profile(_photo(cube, spd, scene), None, scene)
+    peak_bin = int(np.argmax(prof.values.sum(axis=1)))
+    assert abs(prof.lambda_nm[peak_bin] - 550.0) <= 5.0
+
+
+def test_forward_matrix_reproduces_the_photo_profile(nominal):
+    scene, cube = nominal
+    spd = peak_normalise(planck_spd(3200.0) + 0.3 * np.exp(-0.5 * ((WAVELENGTHS_NM - 545) / 4) ** 2))
+    img = _photo(cube, spd, scene)
+    prof = profile.extract_profile(img, None, scene)
+    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    pred = np.einsum("bcl,l->bc", matrix, spd)
+    ok = prof.valid
+    scale = np.sum(pred[ok] * prof.values[ok]) / np.sum(pred[ok] ** 2)
+    assert np.max(np.abs(scale * pred[ok] - prof.values[ok])) < 0.01 * prof.values[ok].max()
+
+
+@pytest.mark.parametrize("spd", [planck_spd(2856.0), daylight_spd(6504.0)])
+def test_physics_solve_round_trip(nominal, spd):
+    scene, cube = nominal
+    img = _photo(cube, spd, scene)
+    prof = profile.extract_profile(img, None, scene)
+    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    est = solve.physics_solve(prof, matrix)
+    metrics = compare_spds(est, spd)
+    assert metrics["mae_400_700"] < 0.02 and metrics["delta_uv_prime"] < 0.002
+
+
+def test_clipped_noise_bias_is_removed(nominal):
+    """Integer photos clip negative noise at zero; dark bins must not read as signal."""
+    scene, cube = nominal
+    spd = planck_spd(2856.0)
+    img = _photo(cube, spd, scene, noise=0.02, seed=3)
+    clipped = np.clip(img, 0.0, None)
+    ref = profile.extract_profile(img, None, scene)
+    got = profile.extract_profile(clipped, None, scene)
+    dark = ref.valid & (ref.lambda_nm > 800)
+    naive = np.mean(np.clip(img, 0, None)) - np.mean(img)
+    assert naive > 0
+    assert np.max(np.abs(got.values[dark] - ref.values[dark])) < 0.3 * 0.02 * 0.2  # < 30 % of read noise
+
+
+def test_nnls_matches_scipy(rng):
+    for _ in range(30):
+        a = rng.normal(size=(60, 25))
+        b = rng.normal(size=60)
+        ref = scipy_nnls(a, b)[0]
+        got = nnls_normal(a.T @ a, a.T @ b)
+        assert np.max(np.abs(got - ref)) < 1e-8
+
+
+@pytest.mark.parametrize("pose", [Pose(camera_offset_mm=(2.0, 0.0)), Pose(light_offset_mm=(8.0, 0.0))])
+def test_pose_fit_finds_the_disc_centre(pose):
+    scene = Scene(load_preset("cd-default").with_image_size(192), pose)
+    cube = render_cube(scene, supersample=3)
+    img = _photo(cube, planck_spd(3000.0), scene, noise=0.005)
+    fit = geometry.fit_geometry(img, load_preset("cd-default"), scene.preset.camera.focal_px)
+    truth = scene.project(np.zeros((1, 3)))[0]
+    assert math.dist(fit.center_px, truth) < 0.6
+    assert fit.residual < 0.01  # the fitted pose explains the photo (noise aside)
+
+
+def test_calibration_gains_recover_a_known_distortion(nominal, rng):
+    scene, cube = nominal
+    ref_spd = known_lamp_spd("incandescent")
+    prof = profile.extract_profile(_photo(cube, ref_spd, scene), None, scene)
+    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    predicted = np.einsum("bcl,l->bc", matrix, ref_spd)
+    true_gain = 1.0 + 0.2 * np.sin(prof.lambda_nm / 60.0)[:, None] * np.array([1.0, -0.5, 0.8])
+    gains = fit_gains(prof.values * true_gain * 7.0, prof.valid, predicted)
+    strong = prof.valid[:, None] & (predicted > 0.1 * predicted.max())
+    ratio = gains[strong] / true_gain[strong]
+    assert np.max(np.abs(ratio / np.median(ratio) - 1)) < 0.03
+
+
+def test_daylight_reference_matches_cie_d65():
+    colour = pytest.importorskip("colour")
+    d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(colour.SpectralShape(380, 780, 5)).values
+    assert np.max(np.abs(daylight_spd(6504.0) - peak_normalise(d65))) < 1e-3
+
+
+def test_preprocessing_float32_matches_float64(nominal):
+    scene, cube = nominal
+    img = _photo(cube, daylight_spd(5000.0), scene, noise=0.01)
+    p64 = profile.extract_profile(img.astype(np.float64), None, scene)
+    p32 = profile.extract_profile(img.astype(np.float32), None, scene)
+    assert np.array_equal(p64.valid, p32.valid)
+    assert np.max(np.abs(p64.values - p32.values)) <= 1e-4 * p64.values.max()

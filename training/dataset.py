@@ -1,0 +1,285 @@
+"""Training data: synthetic photos through the product's own preprocessing, as model inputs.
+
+A handful of capture geometries is rendered once each with Cycles (basis cubes, see
+:mod:`training.basis`); then every sample is a photo made from a cube by a matrix product with a
+random SPD from the prior, a random training camera (with unit-to-unit gain and wavelength
+errors), random exposure (some clipping), noise, ambient light and file encoding (EXR, 16-bit
+PNG, 8-bit PNG, JPEG at several qualities), written to disk and read back by
+``core.images.load_photo`` — exactly what a user's photo goes through. The profile is taken at
+geometries the pose fit actually produced on photos of that cube (its real errors) and the
+physics solve runs with the camera profile a user would pick (the named camera, or "generic").
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass, replace
+from multiprocessing import get_context
+from pathlib import Path
+import numpy as np
+from numpy.typing import NDArray
+
+from cd_spectra_addon.core import forward, solve
+from cd_spectra_addon.core.cameras import CameraProfile, camera_names, load_camera
+from cd_spectra_addon.core.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
+from cd_spectra_addon.core.geometry import fit_geometry
+from cd_spectra_addon.core.images import load_photo
+from cd_spectra_addon.core.model import INPUT_SIZE, model_inputs
+from cd_spectra_addon.core.profile import extract_profile
+from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+
+from . import photo
+from .basis import REPO, basis_cube
+from .spd_prior import gaussian_prior, sample_spds
+
+DATA_DIR = REPO / "data" / "dataset"
+GENERIC = "generic"
+
+__all__ = ["CubeSpec", "CUBE_SETS", "camera_split", "generic_sensitivities", "build_dataset", "Degradation"]
+
+
+@dataclass(frozen=True)
+class CubeSpec:
+    """One capture geometry of the training set."""
+
+    name: str
+    preset: str = "cd-default"
+    camera_offset_mm: tuple[float, float] = (0.0, 0.0)
+    light_offset_mm: tuple[float, float] = (0.0, 0.0)
+    tilt_deg: tuple[float, float] = (0.0, 0.0)
+    lobe_sigma: float | None = None
+    distance_mm: float | None = None
+    groove_height_um: float | None = None
+    size: int = 256
+
+    def scene(self) -> Scene:
+        preset = load_preset(self.preset).with_image_size(self.size)
+        if self.groove_height_um is not None:
+            preset = replace(preset, disc=replace(preset.disc, groove_height_um=self.groove_height_um))
+        if self.lobe_sigma is not None:
+            preset = replace(preset, light=replace(preset.light, lobe_sigma=self.lobe_sigma))
+        if self.distance_mm is not None:
+            shift = self.distance_mm - preset.camera.distance_mm
+            x, y, z = preset.light.position_mm
+            attached = abs(z - preset.camera.distance_mm) < 60
+            light = replace(preset.light, position_mm=(x, y, z + shift if attached else z))
+            preset = replace(preset, camera=replace(preset.camera, distance_mm=self.distance_mm), light=light)
+        return Scene(preset, Pose(self.camera_offset_mm, self.light_offset_mm, self.tilt_deg))
+
+
+# Geometries a careful user gets by hand: lamp beside the lens or on the axis, camera up to a
+# few mm off the disc centre, a degree or two of tilt, lamps from pinhole-small to bulb-sized.
+CUBE_SETS: dict[str, list[CubeSpec]] = {
+    "full": [
+        CubeSpec("nominal"),
+        CubeSpec("small-lamp", lobe_sigma=0.0015),
+        CubeSpec("medium-lamp", lobe_sigma=0.006),
+        CubeSpec("large-lamp", lobe_sigma=0.01, camera_offset_mm=(0.5, 0.5)),
+        CubeSpec("camera-off", camera_offset_mm=(2.0, -1.0)),
+        CubeSpec("lamp-beside", light_offset_mm=(12.0, 0.0)),
+        CubeSpec("lamp-beside-2", light_offset_mm=(-6.0, 8.0), lobe_sigma=0.002),
+        CubeSpec("tilted", tilt_deg=(1.5, -1.0), lobe_sigma=0.004),
+        CubeSpec("far-235", distance_mm=235.0, camera_offset_mm=(1.0, 1.0)),
+        CubeSpec("near-190", distance_mm=190.0, light_offset_mm=(0.0, -4.0), lobe_sigma=0.0025),
+        CubeSpec("far-light", preset="cd-far-light"),
+        CubeSpec("far-light-off", preset="cd-far-light", camera_offset_mm=(1.5, 0.0), lobe_sigma=0.004),
+        CubeSpec("paper", preset="paper"),
+    ],
+    "smoke": [
+        CubeSpec("nominal", size=96),
+        CubeSpec("lamp-beside", light_offset_mm=(10.0, 0.0), size=96),
+    ],
+}
+
+
+def camera_split() -> tuple[list[str], list[str]]:
+    """(training cameras, held-out cameras): every fourth camera, alphabetically, is never
+    trained on, so the evaluation can say how the model does on a camera it has not seen."""
+    names = camera_names()
+    held = names[2::4]
+    return [n for n in names if n not in held], held
+
+
+def generic_sensitivities(names: list[str] | None = None) -> NDArray[np.float64]:
+    """Mean of the training cameras' sensitivities, max 1: the profile for an unknown camera."""
+    names = names or camera_split()[0]
+    mean = np.mean([load_camera(n).sensitivities for n in names], axis=0)
+    return mean / mean.max()
+
+
+@dataclass(frozen=True)
+class Degradation:
+    """What happens between the lens and the file (ranges sampled per photo)."""
+
+    exposure: tuple[float, float] = (0.3, 2.0)  # × auto exposure (log-uniform); above 1.25 the peak clips
+    noise: tuple[float, float] = (0.002, 0.03)
+    ambient_probability: float = 0.25
+    ambient: tuple[float, float] = (0.0, 0.02)
+    formats: tuple[tuple[str, float], ...] = (("exr", 0.15), ("png16", 0.15), ("png", 0.25), ("jpg", 0.45))
+    jpeg_quality: tuple[int, int] = (75, 98)
+    gain_error: float = 0.02  # camera unit vs its published curve, per channel (std)
+    shift_error_nm: float = 1.0  # wavelength shift of the curve (std)
+    generic_probability: float = 0.2
+
+
+def _perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degradation) -> CameraProfile:
+    shift = rng.normal(0.0, deg.shift_error_nm)
+    sens = np.stack([np.interp(WAVELENGTHS_NM - shift, WAVELENGTHS_NM, camera.sensitivities[:, c])
+                     for c in range(3)], axis=1)
+    sens *= 1.0 + rng.normal(0.0, deg.gain_error, size=3)
+    return CameraProfile(camera.name, np.clip(sens, 0.0, None))
+
+
+@dataclass
+class _Variant:
+    """A geometry the profile is taken at (the truth, or what the pose fit found)."""
+
+    scene: Scene
+    pixels: PixelDiffraction
+    response: NDArray[np.float64]
+    residual: float
+    fitted: bool
+
+
+@dataclass
+class _CubeJob:
+    spec: CubeSpec
+    n_samples: int
+    seed: int
+    cameras: list[str]
+    deg: Degradation
+    engine: str
+    samples: int | None
+    n_fits: int
+    cache_dir: str | None = None
+    families: tuple[str, ...] | None = None
+
+
+def _write_and_load(image: NDArray[np.float64], fmt: str, quality: int, tmpdir: str, exif: bytes
+                    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    ext = {"png16": "png"}.get(fmt, fmt)
+    path = Path(tmpdir) / f"sample.{ext}"
+    photo.write_photo(path, image, fmt, exif, quality)
+    loaded = load_photo(path, max_side=4096)
+    return np.asarray(loaded.rgb, dtype=np.float64), np.asarray(loaded.saturated)
+
+
+def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generator, n_fits: int,
+              train_cameras: list[str]) -> list[_Variant]:
+    scene = spec.scene()
+    preset = load_preset(spec.preset).with_image_size(spec.size)
+    meter = photo.track_mask(scene)
+    out = []
+    flat = np.ones(81)
+    truth_px = pixel_diffraction(scene)
+    img, _ = photo.synthesize(cube, flat, load_camera(train_cameras[0]), 0.9, 0.0, rng, meter)
+    prof = extract_profile(img, None, scene, truth_px)
+    out.append(_Variant(scene, truth_px, forward.bin_response(scene, prof), 0.0, False))
+    spds, _ = sample_spds(n_fits, rng)
+    for spd in spds:
+        cam = load_camera(train_cameras[int(rng.integers(len(train_cameras)))])
+        img, _ = photo.synthesize(cube, spd, cam, 0.9, 0.01, rng, meter)
+        fit = fit_geometry(img, preset, scene.preset.camera.focal_px)
+        fs = fit.scene(preset, scene.preset.camera.image_size_px)
+        px = pixel_diffraction(fs)
+        prof = extract_profile(img, None, fs, px)
+        out.append(_Variant(fs, px, forward.bin_response(fs, prof), fit.residual, True))
+    return out
+
+
+def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
+    rng = np.random.default_rng(job.seed)
+    spec = job.spec
+    scene = spec.scene()
+    cache = Path(job.cache_dir) if job.cache_dir else None
+    cube, _ = basis_cube(scene, job.engine, job.samples, **({"cache_dir": cache} if cache else {}))
+    variants = _variants(spec, cube, rng, job.n_fits, job.cameras)
+    meter = photo.track_mask(scene)
+    generic = generic_sensitivities(job.cameras)
+    prior = gaussian_prior()
+    precision = prior.precision()
+    cam = scene.preset.camera
+    spds, families = sample_spds(job.n_samples, rng, families=job.families)
+    inputs = np.zeros((job.n_samples, INPUT_SIZE), dtype=np.float32)
+    physics = np.zeros((job.n_samples, 81), dtype=np.float32)
+    meta = np.zeros((job.n_samples, 4), dtype=np.float32)  # format index, noise, exposure, generic
+    fmt_names = [f for f, _ in job.deg.formats]
+    fmt_p = np.array([p for _, p in job.deg.formats])
+    fmt_p /= fmt_p.sum()
+    deg = job.deg
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, spd in enumerate(spds):
+            camera = load_camera(job.cameras[int(rng.integers(len(job.cameras)))])
+            true_cam = _perturbed_camera(camera, rng, deg)
+            exposure = math.exp(rng.uniform(math.log(deg.exposure[0]), math.log(deg.exposure[1])))
+            noise = rng.uniform(*deg.noise)
+            image, _ = photo.expose(photo.linear_photo(cube, spd, true_cam), exposure, meter)
+            if rng.random() < deg.ambient_probability:
+                image = image + rng.uniform(*deg.ambient) * rng.uniform(0.6, 1.0, size=3)
+            image = np.minimum(photo.add_noise(image, noise, rng), 1.0)
+            k = int(rng.choice(len(fmt_names), p=fmt_p))
+            quality = int(rng.integers(deg.jpeg_quality[0], deg.jpeg_quality[1] + 1))
+            exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
+            rgb, saturated = _write_and_load(image, fmt_names[k], quality, tmp, exif)
+            variant = variants[int(rng.integers(len(variants)))]
+            prof = extract_profile(rgb, saturated, variant.scene, variant.pixels)
+            use_generic = rng.random() < deg.generic_probability
+            sens = generic if use_generic else camera.sensitivities
+            matrix = forward.feature_matrix(variant.response, CameraProfile(GENERIC, sens))
+            e_phys = solve.prior_solve(prof, matrix, prior, precision=precision)
+            inputs[i] = model_inputs(prof, sens, e_phys, variant.scene.preset.light.lobe_sigma, use_generic,
+                                     variant.residual)
+            peak = float(e_phys.max())
+            physics[i] = e_phys / peak if peak > 0 else 0.0
+            meta[i] = (k, noise, exposure, float(use_generic))
+    return {"inputs": inputs, "targets": spds.astype(np.float32), "physics": physics, "meta": meta,
+            "family": np.array(families), "cube": np.array([spec.name] * job.n_samples)}
+
+
+def dataset_key(cube_set: str, n_per_cube: int, seed: int, engine: str, deg: Degradation) -> str:
+    cams, held = camera_split()
+    code = b"".join(Path(p).read_bytes() for p in (__file__, photo.__file__))
+    blob = json.dumps({"set": [asdict(c) for c in CUBE_SETS[cube_set]], "n": n_per_cube, "seed": seed,
+                       "engine": engine, "deg": asdict(deg), "held": held, "input": INPUT_SIZE},
+                      sort_keys=True, default=str).encode() + code
+    return hashlib.sha256(blob).hexdigest()[:12]
+
+
+def build_dataset(cube_set: str = "full", n_per_cube: int = 2500, seed: int = 0, engine: str = "cycles",
+                  samples: int | None = None, workers: int = 2, n_fits: int = 3,
+                  deg: Degradation = Degradation(), out_dir: Path = DATA_DIR,
+                  cache_dir: Path | None = None, log=print) -> Path:
+    """Build (or reuse) the dataset file; returns its path."""
+    key = dataset_key(cube_set, n_per_cube, seed, engine, deg)
+    path = Path(out_dir) / f"{cube_set}-{key}.npz"
+    if path.is_file():
+        log(f"dataset {path.name} exists")
+        return path
+    train_cams, _ = camera_split()
+    specs = CUBE_SETS[cube_set]
+    # Render (or load) the cubes first, in this process: Cycles must not run in two workers.
+    for spec in specs:
+        basis_cube(spec.scene(), engine, samples, **({"cache_dir": cache_dir} if cache_dir else {}),
+                   log=log)
+    gaussian_prior()  # computed once here; forked workers inherit the cached value
+    jobs = [_CubeJob(spec, n_per_cube, seed * 1000 + i, train_cams, deg, engine, samples, n_fits,
+                     str(cache_dir) if cache_dir else None) for i, spec in enumerate(specs)]
+    start = time.perf_counter()
+    if workers > 1:
+        with get_context("fork").Pool(workers) as pool:
+            parts = pool.map(_run_cube, jobs, chunksize=1)
+    else:
+        parts = [_run_cube(job) for job in jobs]
+    log(f"{len(specs) * n_per_cube} samples in {time.perf_counter() - start:.0f} s")
+    merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, **merged, key=key)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,1134 @@
+"""The SPD prior: synthetic lamp spectra for training, built from physics, not from measurements.
+
+The model learns only from spectra drawn here and is judged on measured lamps it never saw, so
+each family describes *how a kind of source makes light* (thermal emission, atomic lines,
+phosphor bands, atmospheric absorption, filters) with parameter ranges taken from physics and
+published product numbers (line wavelengths, phosphor peaks and widths). Nothing is read, fitted,
+tuned or selected on measured SPDs or on CIE/colour-science illuminant tables; those are kept for
+evaluation only.
+
+Families (label: what and why)
+
+- ``smooth``, ``smooth_noise``, ``spiky``: the paper's generic categories (broad Gaussian sums or
+  a log-normal random curve; + white noise; + random narrow lines). They keep the model from
+  over-trusting the physical families.
+- ``blackbody`` (1000–12000 K) and ``incandescent`` (1800–3500 K tungsten with its falling
+  emissivity, optional tinted / neodymium / dichroic IR-cut glass): thermal sources.
+- ``daylight``: a 5000–6500 K sun with Fraunhofer blanketing × Rayleigh, aerosol (Ångström),
+  ozone Chappuis, O₂ A/B and water bands at a random air mass; mixed with Rayleigh-blue sky
+  (direct sun, sun + sky, shade, overcast). No CIE daylight basis.
+- ``led_white`` (InGaN 440–465 nm pump + garnet / LuAG green-yellow + optional nitride red) and
+  ``led_violet`` (405–420 nm pump + blue/green/red phosphors): the mix is *solved* to land on a
+  target CCT (nominal ANSI bins 2200–6500 K) and Duv near the Planckian locus, as manufacturers
+  bin their products.
+- ``led_rgb``: direct-emitting colour LEDs (450…660 nm, 15–35 nm FWHM, wider green/amber,
+  phosphor lime/amber), RGB/RGBA/RGBW sets and single colours at random dimming levels.
+- ``fluorescent_tri`` (Hg lines + Eu²⁺ BAM + Tb³⁺ + Eu³⁺ line phosphors, solved to a CCT) and
+  ``fluorescent_halo`` (Sb³⁺/Mn²⁺ halophosphate bands + Hg lines).
+- ``metal_halide`` (Hg, Na, Tl, In, Sc, Li, Ca, Sr, rare-earth line forests + continuum),
+  ``hps`` (self-reversed pressure-broadened Na D), ``lps`` (Na D doublet), ``mercury`` (clear or
+  red-phosphor mercury vapour), ``xenon`` (≈6000 K arc continuum + Xe lines).
+- ``filtered``: any physical family behind a gel / filter (long-, short-, band-pass, notch,
+  mired-shift CTO/CTB, random dye curve) at a random density.
+
+Grid handling: a grid sample stands for a 5 nm hat (see :mod:`cd_spectra_addon.core.spectral_grid`),
+and every component is hat-averaged as ``resample_to_grid`` would from a fine sampling, only
+cheaper (100 000 spectra must take seconds):
+
+- narrow lines (0.3–8 nm): in closed form (the second difference of the profile's second
+  antiderivative), tabulated over offset × width, plus a series for Lorentzian far wings;
+- LED / phosphor bands (FWHM ≥ 12 nm): a 3-point rule with the hat's moments (error < 2e-4);
+- products with narrow structure (daylight's absorption bands, the HPS self-reversal): a 0.5 nm
+  grid and a matrix made *by* ``resample_to_grid`` (it is linear);
+- slowly varying curves (Planck, filters, random smooth curves): the grid samples themselves
+  (the hat changes them by ~Δ²f''/12, far below 1e-3).
+
+The tests compare each path against ``resample_to_grid`` of a 0.01–0.02 nm sampling.
+
+Default family weights (:data:`DEFAULT_WEIGHTS`, normalised at use): about a fifth generic
+(the paper's categories), a quarter LEDs, the rest thermal, daylight, discharge and filtered, so
+every real lamp type is well represented without one dominating.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+from cd_spectra_addon.core.solve import GaussianPrior
+from numpy.typing import ArrayLike, NDArray
+
+from cd_spectra_addon.core.spectral_grid import (
+    N_BANDS,
+    WAVELENGTH_STEP_NM,
+    WAVELENGTHS_NM,
+    peak_normalise,
+    resample_to_grid,
+)
+
+Array = NDArray[np.float64]
+Generator = np.random.Generator
+
+__all__ = [
+    "FAMILIES",
+    "DEFAULT_WEIGHTS",
+    "FINE_NM",
+    "HG_LINES_NM",
+    "sample_spds",
+    "planck",
+    "lines_on_grid",
+    "fine_to_grid",
+    "smooth",
+    "smooth_noise",
+    "spiky",
+    "blackbody",
+    "incandescent",
+    "daylight",
+    "led_white",
+    "led_violet",
+    "led_rgb",
+    "fluorescent_tri",
+    "fluorescent_halo",
+    "metal_halide",
+    "hps",
+    "lps",
+    "mercury",
+    "xenon",
+    "filtered",
+]
+
+GRID = WAVELENGTHS_NM
+_D = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
+FINE_STEP_NM = 0.5
+FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
+C2_NM_K = 1.438776877e7  # second radiation constant hc/k (nm·K)
+_FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
+_CHUNK = 4096  # rows per generator call: bounds the (rows, components, fine) temporaries
+
+# ---------------------------------------------------------------------------------------------
+# Line lists (air wavelengths, nm; NIST ASD strong lines) and relative strengths (typical lamp
+# ratios, rounded; every row jitters them).
+# ---------------------------------------------------------------------------------------------
+HG_LINES_NM: tuple[tuple[float, float], ...] = (
+    (404.656, 0.35), (407.783, 0.05), (435.833, 0.8), (491.604, 0.03), (546.074, 1.0),
+    (576.960, 0.45), (579.066, 0.5), (623.437, 0.02), (690.746, 0.02),
+)
+_NA_MINOR = ((568.27, 0.05), (568.82, 0.1), (498.28, 0.04), (515.34, 0.04), (615.42, 0.06),
+             (616.07, 0.08), (449.42, 0.01), (466.86, 0.015))
+_NA_D = ((588.995, 1.0), (589.592, 0.5))
+_TL = ((535.046, 1.0),)
+_IN = ((410.176, 0.6), (451.131, 1.0))
+_SC = ((390.75, 0.3), (391.18, 0.3), (402.04, 0.5), (402.37, 0.5), (474.38, 0.2), (503.10, 0.15),
+       (567.18, 0.4), (568.69, 0.3), (570.02, 0.3), (621.07, 0.2), (630.57, 0.2))
+_LI = ((670.78, 1.0), (610.36, 0.2))
+_CA = ((422.67, 1.0), (393.37, 0.3), (396.85, 0.3))
+_SR = ((460.73, 1.0), (407.77, 0.4), (421.55, 0.3))
+_DY_HO_TM = ((404.60, 0.5), (418.68, 0.6), (419.48, 0.4), (421.17, 0.6), (405.39, 0.5),
+             (410.38, 0.5), (416.30, 0.4), (409.42, 0.4), (410.58, 0.4), (418.76, 0.4),
+             (420.37, 0.3), (530.72, 0.2), (598.86, 0.2), (642.19, 0.15))
+_K = ((766.49, 1.0), (769.90, 0.6))
+_XE = ((450.10, 0.3), (452.47, 0.3), (462.43, 0.5), (467.12, 1.0), (473.42, 0.5), (480.70, 0.4),
+       (482.97, 0.6), (492.32, 0.4), (764.20, 0.6))
+_NE = ((585.25, 0.6), (588.19, 0.3), (594.48, 0.3), (597.55, 0.2), (603.00, 0.2), (607.43, 0.3),
+       (609.62, 0.4), (614.31, 0.5), (616.36, 0.2), (621.73, 0.2), (626.65, 0.3), (633.44, 0.4),
+       (638.30, 0.4), (640.23, 1.0), (650.65, 0.4), (659.90, 0.3), (692.95, 0.2), (703.24, 0.4),
+       (724.52, 0.1))
+_AR = ((696.54, 0.5), (706.72, 0.5), (714.70, 0.1), (727.29, 0.2), (738.40, 0.3), (750.39, 0.8),
+       (751.47, 0.5), (763.51, 1.0), (772.38, 0.6))
+# Eu³⁺ in Y₂O₃ (YOX red): ⁵D₀→⁷F_J; Tb³⁺ (CAT/LAP green): ⁵D₄→⁷F_J.
+_EU3 = ((580.8, 0.02), (587.5, 0.06), (593.0, 0.06), (599.2, 0.05), (611.3, 1.0), (624.8, 0.06),
+        (631.2, 0.12), (650.0, 0.03), (653.8, 0.02), (687.6, 0.02), (707.5, 0.04), (709.9, 0.04))
+_TB3 = ((487.4, 0.25), (490.0, 0.1), (542.4, 0.7), (544.6, 1.0), (548.9, 0.2), (583.7, 0.08),
+        (586.1, 0.05), (620.9, 0.06), (646.8, 0.01), (668.6, 0.005), (679.2, 0.005))
+# Eu³⁺ in YVO₄ (colour-corrected mercury lamps), Mn⁴⁺ fluorogermanate deep red.
+_EU_YVO4 = ((593.5, 0.1), (615.0, 0.4), (619.0, 1.0), (697.0, 0.04), (702.0, 0.03))
+_MN4_GERMANATE = ((650.0, 0.3), (655.0, 0.5), (658.0, 1.0), (662.0, 0.4))
+# K₂SiF₆:Mn⁴⁺ (KSF) narrow red phosphor.
+_KSF = ((609.5, 0.2), (613.0, 0.3), (631.0, 1.0), (635.5, 0.4), (647.5, 0.25))
+
+
+# ---------------------------------------------------------------------------------------------
+# Physics primitives
+# ---------------------------------------------------------------------------------------------
+def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike) -> Array:
+    """Planck's spectral radiance shape λ⁻⁵/(exp(c₂/λT)−1), scaled to 1 at 560 nm.
+
+    ``temperature_k`` broadcasts against the wavelengths' last axis (pass shape (n, 1) for rows).
+    """
+    lam = np.asarray(wavelengths_nm, dtype=np.float64)
+    t = np.asarray(temperature_k, dtype=np.float64)
+    b = (560.0 / lam) ** 5 * np.expm1(C2_NM_K / (560.0 * t)) / np.expm1(C2_NM_K / (lam * t))
+    return b
+
+
+def _erfc(x: Array) -> Array:
+    """Vectorised erfc (Numerical Recipes' Chebyshev fit, fractional error < 1.2e-7): keeps the
+    module numpy-only, like the add-on's core."""
+    z = np.abs(x)
+    t = 1.0 / (1.0 + 0.5 * z)
+    r = t * np.exp(-z * z - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (
+        -0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (
+            -0.82215223 + t * 0.17087277)))))))))
+    return np.where(x >= 0, r, 2.0 - r)
+
+
+def _gauss_f2(t: Array, sigma: Array) -> Array:
+    """Second antiderivative of a unit-area Gaussian: t·Φ(t/σ) + σ·φ(t/σ)."""
+    u = t / sigma
+    return t * 0.5 * _erfc(-u / math.sqrt(2.0)) + sigma * np.exp(-0.5 * u * u) / math.sqrt(2 * math.pi)
+
+
+def _lorentz_f2(t: Array, gamma: Array) -> Array:
+    """Second antiderivative of a unit-area Lorentzian (HWHM γ)."""
+    return (t / math.pi) * np.arctan(t / gamma) - gamma / (2 * math.pi) * np.log(t * t + gamma * gamma) \
+        + 0.5 * t
+
+
+# Lines are hat-integrated exactly on the 2·WIN+1 samples around them (from a table, below);
+# beyond, the Gaussian part is < 1e-5 of the line (FWHM ≤ 8 nm) and the Lorentzian part uses
+# its far-field series.
+_WIN = 4
+_MIN_LINE_FWHM = 0.3
+_MAX_LINE_FWHM = 8.0
+_TAB_DELTA = np.linspace(-0.5 * _D, 0.5 * _D, 201)  # line centre minus its nearest grid sample
+_TAB_LOGW = np.linspace(math.log(_MIN_LINE_FWHM), math.log(_MAX_LINE_FWHM), 129)
+_FAR_PAD = 20  # far field of lines up to 100 nm outside the grid
+
+
+def _window_exact(delta: Array, fwhm: Array, lorentz: bool) -> Array:
+    """Exact hat averages of a unit-area line at offset ``delta`` from grid sample 0, on samples
+    −WIN..WIN: the hat is the second difference of a ramp, so hat ∗ profile is the second
+    difference of the profile's second antiderivative at neighbouring samples."""
+    k = np.arange(-_WIN - 1, _WIN + 2)
+    t = _D * k[None, :] - delta[:, None]
+    f2 = _lorentz_f2(t, 0.5 * fwhm[:, None]) if lorentz else _gauss_f2(t, fwhm[:, None] * _FWHM_TO_SIGMA)
+    return (f2[:, 2:] - 2.0 * f2[:, 1:-1] + f2[:, :-2]) / (_D * _D)
+
+
+@cache
+def _window_tables() -> Array:
+    """(δ, log FWHM, {Gauss, Lorentz}, 2·WIN+1) table of :func:`_window_exact`."""
+    d, lw = np.meshgrid(_TAB_DELTA, _TAB_LOGW, indexing="ij")
+    w = np.exp(lw.ravel())
+    shape = d.shape + (2 * _WIN + 1,)
+    g = _window_exact(d.ravel(), w, False).reshape(shape)
+    lor = _window_exact(d.ravel(), w, True).reshape(shape)
+    return np.ascontiguousarray(np.stack([g, lor], axis=2))
+
+
+@cache
+def _far_kernels() -> Array:
+    """(channel, padded source sample, grid sample) kernels of the Lorentzian far field.
+
+    For |x| > WIN·Δ the hat-averaged unit Lorentzian is (γ/π)[x⁻² + (3μ₂−γ²)x⁻⁴ + (5μ₄−10μ₂γ²+γ⁴)x⁻⁶]
+    (μ₂, μ₄ the hat's moments), and x = kΔ − δ is expanded in δ/(kΔ) ≤ 0.1; each term is a
+    per-line amplitude times a kernel in k. Relative error ≲ 1e-4.
+    """
+    src = np.arange(-_FAR_PAD, N_BANDS + _FAR_PAD)
+    k = (np.arange(N_BANDS)[None, :] - src[:, None]).astype(np.float64)
+    far = np.abs(k) > _WIN
+    kd = np.where(far, k * _D, 1.0)
+    kernels = [(q + 1) * kd ** -(2.0 + q) for q in range(6)]
+    kernels += [math.comb(q + 3, 3) * kd ** -(4.0 + q) for q in range(3)]
+    kernels += [kd**-6.0]
+    return np.stack([np.where(far, kern, 0.0) for kern in kernels])
+
+
+def lines_on_grid(
+    centre_nm: ArrayLike,
+    fwhm_nm: ArrayLike,
+    area: ArrayLike,
+    lorentz_fraction: ArrayLike = 0.0,
+) -> Array:
+    """Hat-averaged grid values of pseudo-Voigt lines, summed over the last axis: (..., 81).
+
+    Inputs broadcast to (..., L); ``area`` is each line's energy (value × nm), so
+    ``Σ grid × 5 nm`` gives it back (minus the wings outside 380–780 nm). FWHM 0.3–8 nm.
+    This is what ``resample_to_grid`` computes from a finely sampled line, without the samples.
+    """
+    arrs = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=np.float64))
+                                 for v in (centre_nm, fwhm_nm, area, lorentz_fraction)))
+    c, w, a, eta = arrs
+    if np.any(w > _MAX_LINE_FWHM) or np.any(w < _MIN_LINE_FWHM):
+        raise ValueError(f"line FWHM must be in [{_MIN_LINE_FWHM}, {_MAX_LINE_FWHM}] nm")
+    if np.any((eta < 0) | (eta > 1)) or np.any(a < 0):
+        raise ValueError("need 0 ≤ lorentz_fraction ≤ 1 and area ≥ 0")
+    lead = c.shape[:-1]
+    n_rows = int(np.prod(lead)) if lead else 1
+    row = np.repeat(np.arange(n_rows), c.shape[-1])
+    c, w, a, eta = (v.reshape(-1) for v in (c, w, a, eta))
+    keep = a > 0
+    out = _render_lines(row[keep], c[keep], w[keep], a[keep], eta[keep], n_rows)
+    return out.reshape(lead + (N_BANDS,))
+
+
+def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_rows: int) -> Array:
+    """Flat list of lines (row index, centre, FWHM, area, Lorentz fraction) → (n_rows, 81)."""
+    out = np.zeros((n_rows, N_BANDS))
+    j0 = np.rint((c - GRID[0]) / _D).astype(np.int64)
+    inside = (j0 >= -_FAR_PAD) & (j0 < N_BANDS + _FAR_PAD)
+    row, c, fwhm, area, eta, j0 = (v[inside] for v in (row, c, fwhm, area, eta, j0))
+    if row.size == 0:
+        return out
+    delta = c - (GRID[0] + _D * j0)
+    # Window: bilinear lookup in (δ, log FWHM); each table row conserves energy, so does the mix.
+    last_d, last_w = _TAB_DELTA.size - 1.000001, _TAB_LOGW.size - 1.000001
+    fd = np.clip((delta - _TAB_DELTA[0]) / (_TAB_DELTA[1] - _TAB_DELTA[0]), 0.0, last_d)
+    fw = np.clip((np.log(fwhm) - _TAB_LOGW[0]) / (_TAB_LOGW[1] - _TAB_LOGW[0]), 0.0, last_w)
+    i, j = fd.astype(np.int64), fw.astype(np.int64)
+    td, tw = (fd - i)[:, None, None], (fw - j)[:, None, None]
+    tab = _window_tables()  # (δ, log w, Gauss/Lorentz, samples)
+    v = ((1 - td) * ((1 - tw) * tab[i, j] + tw * tab[i, j + 1])
+         + td * ((1 - tw) * tab[i + 1, j] + tw * tab[i + 1, j + 1]))
+    vals = v[:, 0] * ((1.0 - eta) * area)[:, None] + v[:, 1] * (eta * area)[:, None]
+    has_l = eta > 0
+    cols = j0[:, None] + np.arange(-_WIN, _WIN + 1)[None, :]
+    ok = (cols >= 0) & (cols < N_BANDS)
+    flat = (row[:, None] * N_BANDS + cols)[ok]
+    out += np.bincount(flat, weights=vals[ok], minlength=out.size).reshape(n_rows, N_BANDS)
+    if np.any(has_l):
+        r, d, g = row[has_l], delta[has_l], 0.5 * fwhm[has_l]
+        amp = (eta * area)[has_l] * g / math.pi
+        mu2, mu4 = _D * _D / 6.0, _D**4 / 15.0
+        b = amp * (3.0 * mu2 - g * g)
+        c3 = amp * (5.0 * mu4 - 10.0 * mu2 * g * g + g**4)
+        chans = [amp * d**q for q in range(6)] + [b * d**q for q in range(3)] + [c3]
+        src = r * (N_BANDS + 2 * _FAR_PAD) + j0[has_l] + _FAR_PAD
+        size = n_rows * (N_BANDS + 2 * _FAR_PAD)
+        dep = np.concatenate([np.bincount(src, weights=ch, minlength=size).reshape(n_rows, -1)
+                              for ch in chans], axis=1)
+        out += dep @ _far_kernels().reshape(-1, N_BANDS)
+    return out
+
+
+@cache
+def _fine_matrix() -> Array:
+    """(fine, 81) matrix of ``resample_to_grid`` from :data:`FINE_NM` (the function is linear,
+    so its response to unit impulses is the whole operator)."""
+    return np.ascontiguousarray(resample_to_grid(FINE_NM, np.eye(FINE_NM.size)))
+
+
+def fine_to_grid(values: ArrayLike) -> Array:
+    """Spectra sampled on :data:`FINE_NM` (last axis) → the 5 nm grid, as ``resample_to_grid``."""
+    return np.asarray(values, dtype=np.float64) @ _fine_matrix()
+
+
+def _gauss(lam: Array, centre: Array, sigma: Array) -> Array:
+    return np.exp(-0.5 * ((lam - centre) / sigma) ** 2)
+
+
+# Hat average of smooth curves by a 3-point rule matching the hat's moments up to the 5th
+# (nodes 0, ±√0.4·Δ, weights 1−2w, w with w = 1/4.8): error < 2e-4 of the peak for bands of
+# FWHM ≥ 12 nm, at 3 evaluations per sample instead of a fine grid and a matrix product.
+_HAT3_OFFSETS = np.array([-math.sqrt(0.4), 0.0, math.sqrt(0.4)]) * _D
+_HAT3_W = np.array([1.0 / 4.8, 1.0 - 2.0 / 4.8, 1.0 / 4.8])
+_HAT3_NM: Array = (GRID[:, None] + _HAT3_OFFSETS[None, :]).ravel()
+
+
+def _hat3(values: Array) -> Array:
+    """Values at :data:`_HAT3_NM` (last axis) → hat averages on the grid."""
+    return values.reshape(values.shape[:-1] + (N_BANDS, 3)) @ _HAT3_W
+
+
+def _band_grid(peak_nm: Array, fwhm_nm: Array) -> Array:
+    """Energy-Gaussian band hat-averaged onto the grid."""
+    return _hat3(_energy_band(peak_nm, fwhm_nm, _HAT3_NM))
+
+
+def _energy_band(peak_nm: Array, fwhm_nm: Array, lam: Array = FINE_NM) -> Array:
+    """Band that is Gaussian in photon energy (phosphors, LEDs), per unit wavelength: a natural
+    red tail. Shapes (...,) → (..., len(lam))."""
+    p = np.asarray(peak_nm, dtype=np.float64)[..., None]
+    s_nu = np.asarray(fwhm_nm, dtype=np.float64)[..., None] * _FWHM_TO_SIGMA * 1e7 / p**2
+    nu = 1e7 / lam
+    return np.exp(-0.5 * ((nu - 1e7 / p) / s_nu) ** 2) * (p / lam) ** 2
+
+
+def _sigmoid(x: Array) -> Array:
+    return 0.5 * (1.0 + np.tanh(0.5 * x))
+
+
+# ---------------------------------------------------------------------------------------------
+# Colour helpers: only to aim white sources at a target CCT/Duv, as products are binned.
+# CIE 1931 2° CMFs by the analytic multi-lobe fit of Wyman, Sloan & Shirley (JCGT 2013): an
+# observer model, not a light source, and no table import.
+# ---------------------------------------------------------------------------------------------
+def _lobe(lam: Array, mu: float, s1: float, s2: float) -> Array:
+    s = np.where(lam < mu, s1, s2)
+    return np.exp(-0.5 * ((lam - mu) / s) ** 2)
+
+
+@cache
+def _cmf_grid() -> Array:
+    lam = GRID
+    x = 1.056 * _lobe(lam, 599.8, 37.9, 31.0) + 0.362 * _lobe(lam, 442.0, 16.0, 26.7) \
+        - 0.065 * _lobe(lam, 501.1, 20.4, 26.2)
+    y = 0.821 * _lobe(lam, 568.8, 46.9, 40.5) + 0.286 * _lobe(lam, 530.9, 16.3, 31.1)
+    z = 1.217 * _lobe(lam, 437.0, 11.8, 36.0) + 0.681 * _lobe(lam, 459.0, 26.0, 13.8)
+    return np.stack([x, y, z], axis=-1)  # (81, 3)
+
+
+def _xyz(spd: Array) -> Array:
+    return spd @ _cmf_grid()
+
+
+def _uv(xyz: Array) -> Array:
+    d = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
+    return np.stack([4.0 * xyz[..., 0] / d, 6.0 * xyz[..., 1] / d], axis=-1)
+
+
+def _target_xy(cct: Array, duv: Array) -> Array:
+    """Chromaticity at (CCT, Duv): Planckian point moved by Duv along the locus normal in uv."""
+    uv0 = _uv(_xyz(planck(GRID, cct[:, None])))
+    uv1 = _uv(_xyz(planck(GRID, cct[:, None] * 1.01)))
+    tan = uv1 - uv0
+    normal = np.stack([tan[:, 1], -tan[:, 0]], axis=-1)  # towards +v: above the locus (greenish)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    u, v = (uv0 + duv[:, None] * normal).T
+    den = 2.0 * u - 8.0 * v + 4.0
+    return np.stack([3.0 * u / den, 2.0 * v / den], axis=-1)
+
+
+def _solve_mix(parts: Array, fixed: Array, fixed_share: Array, target_xy: Array) -> tuple[Array, Array]:
+    """Weights w (m, 3) ≥ 0 hoped for, so that Σ wᵢ·partᵢ + fixed has chromaticity ``target_xy``
+    and ``fixed`` (rescaled) carries ``fixed_share`` of the luminance Y. NaN where singular.
+
+    Three linear equations per row (x and y conditions and the luminance split), by Cramer's rule.
+    """
+    pxyz = _xyz(parts)  # (m, 3 parts, 3)
+    fxyz = _xyz(fixed)  # (m, 3)
+    fy = fxyz[:, 1]
+    scale = np.divide(fixed_share, fy, out=np.zeros_like(fy), where=fy > 0)
+    fxyz = fxyz * scale[:, None]
+    x, y = target_xy[:, 0:1], target_xy[:, 1:2]
+    s = pxyz.sum(-1)
+    r0 = pxyz[..., 0] - x * s  # (m, 3)
+    r1 = pxyz[..., 1] - y * s
+    r2 = pxyz[..., 1]
+    fs = fxyz.sum(-1)
+    rhs = np.stack([-(fxyz[:, 0] - x[:, 0] * fs), -(fxyz[:, 1] - y[:, 0] * fs), 1.0 - fixed_share], -1)
+    c12, c20, c01 = np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)
+    det = np.einsum("mi,mi->m", r0, c12)
+    w = (rhs[:, 0:1] * c12 + rhs[:, 1:2] * c20 + rhs[:, 2:3] * c01)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = w / det[:, None]
+    w[np.abs(det) < 1e-300] = np.nan
+    return w, scale
+
+
+def _white_mix(
+    rng: Generator,
+    n: int,
+    make: Callable[[Generator, int], tuple[Array, Array, Array]],
+    targets: Callable[[Generator, int], tuple[Array, Array]],
+    part_share: Sequence[tuple[float, float]] | None = None,
+) -> Array:
+    """Rows aimed at sampled (CCT, Duv) targets: ``make`` gives 3 parts + a fixed part and its
+    luminance share; rows whose target lies outside the parts' gamut (or whose parts' luminance
+    shares fall outside ``part_share``) are redrawn."""
+    out = np.empty((n, N_BANDS))
+    todo = np.arange(n)
+    bounds = None if part_share is None else np.asarray(part_share, dtype=np.float64)
+    for _ in range(50):
+        m = todo.size
+        parts, fixed, share = make(rng, m)
+        cct, duv = targets(rng, m)
+        w, scale = _solve_mix(parts, fixed, share, _target_xy(cct, duv))
+        ok = np.all(np.isfinite(w) & (w >= 0), axis=1)
+        if bounds is not None:
+            lum = w * _xyz(parts)[..., 1]  # each part's share of Y (total Y is 1)
+            ok &= np.all((lum >= bounds[:, 0]) & (lum <= bounds[:, 1]), axis=1)
+        out[todo[ok]] = np.einsum("mk,mkb->mb", w[ok], parts[ok]) + fixed[ok] * scale[ok, None]
+        todo = todo[~ok]
+        if todo.size == 0:
+            return out
+    # Give up aiming for the last few: a valid (if off-target) mix beats a hang.
+    wf = np.nan_to_num(np.clip(w[~ok], 0.0, None)) + 1e-3
+    out[todo] = np.einsum("mk,mkb->mb", wf, parts[~ok]) + fixed[~ok] * scale[~ok, None]
+    return out
+
+
+@cache
+def _locus_table() -> tuple[Array, Array]:
+    t = np.geomspace(1000.0, 1e5, 600)
+    return t, _uv(_xyz(planck(GRID, t[:, None])))
+
+
+def _cct_duv(spd: Array) -> tuple[Array, Array]:
+    """Approximate CCT and Duv (nearest of 600 tabulated Planckian points, CCT within ~0.4 %):
+    enough to keep mostly-white lamp families white."""
+    t, loc = _locus_table()
+    uv = _uv(_xyz(spd))
+    d = uv[:, None, :] - loc[None, :, :]
+    j = np.argmin(np.einsum("mtk,mtk->mt", d, d), axis=1)
+    dist = np.sqrt(np.einsum("mk,mk->m", d[np.arange(j.size), j], d[np.arange(j.size), j]))
+    return t[j], np.where(uv[:, 1] >= loc[j, 1], dist, -dist)
+
+
+# ---------------------------------------------------------------------------------------------
+# Random helpers
+# ---------------------------------------------------------------------------------------------
+def _u(rng: Generator, lo: float, hi: float, size: int | tuple[int, ...]) -> Array:
+    return rng.uniform(lo, hi, size)
+
+
+def _logu(rng: Generator, lo: float, hi: float, size: int | tuple[int, ...]) -> Array:
+    return np.exp(rng.uniform(math.log(lo), math.log(hi), size))
+
+
+def _power(spd: Array) -> Array:
+    """Radiant power on the grid (Σ·Δ), per row (the hats tile the range)."""
+    return spd.sum(-1) * _D
+
+
+def _unit_power(spd: Array) -> Array:
+    p = _power(spd)
+    return spd / np.where(p > 0, p, 1.0)[..., None]
+
+
+@dataclass(frozen=True)
+class _LineGroup:
+    """One emitter's lines: included per row with probability ``p``; total group power drawn
+    log-uniformly; width and Lorentz share per row and group."""
+
+    lines: tuple[tuple[float, float], ...]
+    p: float = 1.0
+    power: tuple[float, float] = (1.0, 1.0)
+    fwhm: tuple[float, float] = (0.5, 3.0)
+    eta: tuple[float, float] = (0.0, 0.5)
+    jitter_nm: float = 0.0  # per-line centre jitter: unresolved multiplets, host lattice shifts
+
+
+def _group_lines(rng: Generator, n: int, groups: Sequence[_LineGroup], scatter: float = 0.25) -> Array:
+    """Grid spectra (n, 81) of line groups; each group's total line power is its drawn power."""
+    rows, cs, ws, areas, etas = [], [], [], [], []
+    for g in groups:
+        centres = np.array([c for c, _ in g.lines])
+        rel = np.array([r for _, r in g.lines])
+        on = rng.random(n) < g.p
+        pw = _logu(rng, *g.power, n) * on
+        w = _logu(rng, *g.fwhm, n)
+        e = _u(rng, *g.eta, n)
+        rel_row = rel[None, :] * np.exp(scatter * rng.standard_normal((n, rel.size)))
+        rel_row /= rel_row.sum(1, keepdims=True)
+        c = centres[None, :] + g.jitter_nm * rng.standard_normal((n, rel.size))
+        r = np.repeat(np.arange(n)[:, None], rel.size, 1)
+        rows.append(r.ravel())
+        cs.append(c.ravel())
+        ws.append(np.repeat(w[:, None], rel.size, 1).ravel())
+        areas.append((pw[:, None] * rel_row).ravel())
+        etas.append(np.repeat(e[:, None], rel.size, 1).ravel())
+    row, c, w, a, e = (np.concatenate(v) for v in (rows, cs, ws, areas, etas))
+    keep = a > 0
+    return _render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
+
+
+def _random_lines(rng: Generator, n: int, count: tuple[int, int], lo_nm: float, hi_nm: float,
+                  fwhm: tuple[float, float], power: Array, eta: tuple[float, float] = (0.0, 0.5)) -> Array:
+    """``count`` random lines per row between ``lo_nm`` and ``hi_nm`` with log-normal strengths,
+    total power ``power`` (n,): unresolved line forests (rare earths) and generic spikes."""
+    kmax = count[1]
+    k = rng.integers(count[0], count[1] + 1, n)
+    mask = np.arange(kmax)[None, :] < k[:, None]
+    c = _u(rng, lo_nm, hi_nm, (n, kmax))
+    w = _logu(rng, *fwhm, (n, kmax))
+    e = _u(rng, *eta, (n, kmax))
+    a = np.exp(1.0 * rng.standard_normal((n, kmax))) * mask
+    a *= (power / np.maximum(a.sum(1), 1e-12))[:, None]
+    row = np.repeat(np.arange(n)[:, None], kmax, 1)
+    keep = a > 0
+    return _render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
+
+
+# ---------------------------------------------------------------------------------------------
+# Families. Internal generators return (n, 81) non-negative, unnormalised rows.
+# ---------------------------------------------------------------------------------------------
+_GENERATORS: dict[str, Callable[[Generator, int], Array]] = {}
+
+
+def _family(name: str) -> Callable[[Callable[[Generator, int], Array]], Callable[..., Array]]:
+    """Register ``fn(rng, n) -> (n, 81)`` and return the public ``(rng, n=None)`` form."""
+
+    def wrap(fn: Callable[[Generator, int], Array]) -> Callable[..., Array]:
+        _GENERATORS[name] = fn
+
+        def public(rng: Generator, n: int | None = None) -> Array:
+            rows = _generate(name, rng, 1 if n is None else int(n))
+            return rows[0] if n is None else rows
+
+        public.__name__ = public.__qualname__ = fn.__name__
+        public.__doc__ = (fn.__doc__ or "") + "\n\nReturns (81,) if ``n`` is None, else (n, 81), peak 1."
+        return public
+
+    return wrap
+
+
+def _generate(name: str, rng: Generator, n: int) -> Array:
+    fn = _GENERATORS[name]
+    parts = [fn(rng, min(_CHUNK, n - s)) for s in range(0, n, _CHUNK)]
+    out = np.concatenate(parts) if parts else np.empty((0, N_BANDS))
+    out = np.where(np.isfinite(out), np.maximum(out, 0.0), 0.0)
+    if np.any(out.max(axis=1, initial=0.0) <= 0):
+        raise RuntimeError(f"{name}: generated an all-zero spectrum")  # a bug, never data
+    return peak_normalise(out)
+
+
+def _smooth_curves(rng: Generator, n: int) -> Array:
+    lam = GRID[None, :]
+    # (a) 1–6 broad Gaussians (centres may lie outside the range: slopes) on a floor.
+    kmax = 6
+    k = rng.integers(1, kmax + 1, n)
+    mask = np.arange(kmax)[None, :] < k[:, None]
+    c = _u(rng, 330.0, 830.0, (n, kmax))
+    s = _logu(rng, 40.0, 400.0, (n, kmax)) * _FWHM_TO_SIGMA
+    a = _u(rng, 0.05, 1.0, (n, kmax)) * mask
+    gs = np.einsum("nk,nkb->nb", a, _gauss(lam[:, None, :], c[..., None], s[..., None]))
+    gs = gs / gs.max(1, keepdims=True) + _u(rng, 0.0, 0.3, n)[:, None] * (rng.random(n) < 0.5)[:, None]
+    # (b) log-normal random curve: exp of a low-order Fourier series with a decaying spectrum.
+    kk = np.arange(1, 9)
+    u = (lam - GRID[0]) / (GRID[-1] - GRID[0])
+    amp = _u(rng, 0.3, 1.5, n)[:, None] / kk[None, :] ** _u(rng, 1.0, 2.5, n)[:, None]
+    coef = amp * rng.standard_normal((n, kk.size))
+    phase = _u(rng, 0.0, 2 * math.pi, (n, kk.size))
+    waves = np.cos(math.pi * kk[None, :, None] * u[:, None, :] + phase[..., None])
+    logc = np.einsum("nk,nkb->nb", coef, waves)
+    ln = np.exp(logc - logc.max(1, keepdims=True))
+    pick = rng.random(n) < 0.5
+    return np.where(pick[:, None], gs, ln)
+
+
+@_family("smooth")
+def smooth(rng: Generator, n: int) -> Array:
+    """Random smooth curve (broad Gaussians or a log-normal field): the paper's generic class."""
+    return _smooth_curves(rng, n)
+
+
+@_family("smooth_noise")
+def smooth_noise(rng: Generator, n: int) -> Array:
+    """Smooth curve + white noise of 0.3–5 % of the peak (clipped at 0): noisy measurements."""
+    base = peak_normalise(_smooth_curves(rng, n))
+    noise = _logu(rng, 0.003, 0.05, n)[:, None] * rng.standard_normal((n, N_BANDS))
+    return np.maximum(base + noise, 0.0) + 1e-6
+
+
+@_family("spiky")
+def spiky(rng: Generator, n: int) -> Array:
+    """Smooth curve + 1–15 random narrow lines (0.5–8 nm): generic line sources."""
+    base = peak_normalise(_smooth_curves(rng, n)) * _u(rng, 0.1, 1.0, n)[:, None]
+    power = _logu(rng, 0.05, 3.0, n) * _power(base)
+    return base + _random_lines(rng, n, (1, 15), 380.0, 780.0, (0.5, 8.0), power, eta=(0.0, 0.6))
+
+
+@_family("blackbody")
+def blackbody(rng: Generator, n: int) -> Array:
+    """Planck radiator, T log-uniform in 1000–12000 K: embers and candles to blue-sky CCTs."""
+    return planck(GRID, _logu(rng, 1000.0, 12000.0, n)[:, None])
+
+
+def _glass(rng: Generator, n: int, lam: Array = GRID) -> Array:
+    """Envelope / reflector effects of real bulbs (identity for most rows): tinted glass tilt,
+    neodymium 'daylight' glass (absorption 583 nm + 528/745 nm), dichroic IR-cut roll-off."""
+    t = np.ones((n, lam.size))
+    tilt = rng.random(n) < 0.25
+    s = _u(rng, -0.25, 0.25, n)[:, None]
+    t = np.where(tilt[:, None], t * np.exp(s * (lam - 580.0) / 200.0), t)
+    nd = rng.random(n) < 0.1
+    absorb = (1.0 * _gauss(lam, 584.0, 7.0) + 0.3 * _gauss(lam, 528.0, 5.0) + 0.4 * _gauss(lam, 745.0, 6.0)
+              + 0.15 * _gauss(lam, 685.0, 5.0))
+    dens = _u(rng, 0.2, 1.2, n)[:, None]
+    t = np.where(nd[:, None], t * 10.0 ** (-dens * absorb[None, :]), t)
+    ir = rng.random(n) < 0.15
+    cut = 1.0 - _u(rng, 0.3, 0.9, n)[:, None] * _sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None])
+                                                      / _u(rng, 8.0, 25.0, n)[:, None])
+    return np.where(ir[:, None], t * cut, t)
+
+
+@_family("incandescent")
+def incandescent(rng: Generator, n: int) -> Array:
+    """Tungsten filament 1800–3500 K (dimmed, household, halogen, photoflood); emissivity falls
+    ~5–15 % across the visible (slightly bluer than Planck); optional bulb glass effects."""
+    t = _u(rng, 1800.0, 3500.0, n)[:, None]
+    emiss = 1.0 - _u(rng, 0.03, 0.15, n)[:, None] * (GRID - 380.0) / 400.0
+    return planck(GRID, t) * emiss * _glass(rng, n)
+
+
+# Solar Fraunhofer features as Gaussian dips of σ = 1 nm with their equivalent widths (nm):
+# only the energy they remove matters on a 5 nm grid.
+_FRAUNHOFER = ((393.37, 2.0), (396.85, 1.5), (382.0, 0.6), (383.8, 0.4), (410.17, 0.31), (430.8, 0.5),
+               (434.05, 0.28), (438.4, 0.1), (486.13, 0.37), (516.9, 0.15), (517.3, 0.15), (518.4, 0.2),
+               (527.0, 0.1), (589.3, 0.14), (656.28, 0.4))
+
+
+def _extraterrestrial_sun(rng: Generator, n: int, lam: Array) -> Array:
+    t = _u(rng, 5000.0, 6500.0, n)[:, None]
+    sun = planck(lam, t)
+    depth = np.zeros_like(lam)
+    for c, ew in _FRAUNHOFER:
+        depth = depth + ew / (1.0 * math.sqrt(2 * math.pi)) * _gauss(lam, c, 1.0)
+    sun = sun * np.clip(1.0 - _u(rng, 0.7, 1.2, n)[:, None] * depth[None, :], 0.05, 1.0)
+    blanket = 1.0 - _u(rng, 0.05, 0.2, n)[:, None] * _sigmoid((430.0 - lam) / 15.0)
+    return sun * blanket
+
+
+def _atmosphere_tau(rng: Generator, n: int, lam: Array) -> tuple[Array, Array, Array, Array, Array]:
+    """Optical depths per unit air mass: (continuum = Rayleigh + aerosol + ozone, O₂ bands,
+    water bands, Rayleigh, aerosol); the band ones grow ∝ √(path) because they saturate."""
+    mu = lam / 1000.0
+    press = _u(rng, 0.75, 1.02, n)[:, None]
+    rayleigh = press * 0.008569 * mu**-4 * (1.0 + 0.0113 * mu**-2 + 0.00013 * mu**-4)
+    beta = _logu(rng, 0.01, 0.3, n)[:, None]
+    alpha = _u(rng, 0.5, 2.0, n)[:, None]
+    aerosol = beta * mu ** (-alpha)
+    du = _u(rng, 220.0, 450.0, n)[:, None]
+    chappuis = 4.8e-21 * (0.8 * _gauss(lam, 602.0, 40.0) + 0.3 * _gauss(lam, 573.0, 18.0)
+                          + 0.15 * _gauss(lam, 535.0, 25.0))
+    ozone = du * 2.687e16 * chappuis
+    o2 = press * (1.5 * _gauss(lam, 760.8, 0.8) + 0.6 * _gauss(lam, 764.8, 1.8)
+                  + 0.4 * _gauss(lam, 687.3, 0.8) + 0.15 * _gauss(lam, 690.5, 1.5)
+                  + 0.03 * _gauss(lam, 628.5, 1.5)  # O₂ γ band
+                  + 0.015 * _gauss(lam, 577.0, 4.0) + 0.015 * _gauss(lam, 630.0, 4.0))  # O₂–O₂ bands
+    water_cm = _logu(rng, 0.3, 4.0, n)[:, None]
+    h2o = np.sqrt(water_cm / 2.0) * (0.25 * _gauss(lam, 724.0, 7.0) + 0.06 * _gauss(lam, 697.0, 3.0)
+                                     + 0.04 * _gauss(lam, 651.0, 4.0) + 0.03 * _gauss(lam, 592.0, 4.0))
+    return rayleigh + aerosol + ozone, o2, h2o, rayleigh, aerosol
+
+
+@_family("daylight")
+def daylight(rng: Generator, n: int) -> Array:
+    """Sun through the atmosphere and/or sky light, built on the fine grid.
+
+    Direct beam: S·exp(−m·τ_cont − √m·(τ_O₂ + τ_H₂O)), air mass m from the sun's elevation
+    (Kasten–Young). Sky: singly scattered sunlight ∝ S·(τ_R + 0.5·τ_aer) over a shorter path.
+    Scenes: direct sun, sun + sky, shade (sky only) and overcast (neutral cloud, longer water path).
+    """
+    lam = FINE_NM
+    sun = _extraterrestrial_sun(rng, n, lam)
+    cont, o2, h2o, ray, aer = _atmosphere_tau(rng, n, lam)
+    elev = np.degrees(np.arcsin(_u(rng, math.sin(math.radians(15.0)), 1.0, n)))
+    zen = 90.0 - elev
+    m = (1.0 / (np.cos(np.radians(zen)) + 0.50572 * (96.07995 - zen) ** -1.6364))[:, None]
+    direct = sun * np.exp(-m * cont - np.sqrt(m) * (o2 + h2o))
+    ms = _u(rng, 1.0, 2.5, n)[:, None]
+    sky = sun * (ray + 0.5 * aer) * np.exp(-ms * cont - np.sqrt(ms) * (o2 + h2o))
+    d_n, s_n = _unit_power(fine_to_grid(direct)), _unit_power(fine_to_grid(sky))
+    scene = rng.choice(4, n, p=[0.2, 0.4, 0.25, 0.15])
+    f_sky = np.select([scene == 0, scene == 1, scene == 2],
+                      [_u(rng, 0.0, 0.05, n), _u(rng, 0.1, 0.35, n), _u(rng, 0.75, 1.0, n)],
+                      _u(rng, 0.3, 0.6, n))[:, None]
+    out = (1.0 - f_sky) * d_n + f_sky * s_n
+    overcast = scene == 3
+    extra_water = fine_to_grid(np.exp(-_u(rng, 0.5, 2.0, n)[:, None] * h2o))
+    return np.where(overcast[:, None], out * extra_water, out)
+
+
+# ---- LEDs -----------------------------------------------------------------------------------
+_ANSI_CCT = np.array([2200.0, 2700.0, 3000.0, 3500.0, 4000.0, 4500.0, 5000.0, 5700.0, 6500.0])
+
+
+def _led_targets(lo: float, hi: float) -> Callable[[Generator, int], tuple[Array, Array]]:
+    """CCT: 70 % a nominal ANSI bin (±3 %), 30 % log-uniform; Duv ~ N(+0.001, 0.004), |Duv| ≤ 0.012."""
+    bins = _ANSI_CCT[(_ANSI_CCT >= lo) & (_ANSI_CCT <= hi)]
+
+    def draw(rng: Generator, m: int) -> tuple[Array, Array]:
+        nominal = rng.choice(bins, m) * (1.0 + 0.03 * rng.uniform(-1, 1, m))
+        free = _logu(rng, lo, hi, m)
+        cct = np.clip(np.where(rng.random(m) < 0.7, nominal, free), lo, hi)
+        duv = np.clip(0.001 + 0.004 * rng.standard_normal(m), -0.012, 0.012)
+        return cct, duv
+
+    return draw
+
+
+def _blue_pump(rng: Generator, m: int, lo: float, hi: float, fwhm: tuple[float, float]) -> Array:
+    """InGaN emission: Gaussian in energy with a red shoulder (band tail / indium fluctuation),
+    sampled at :data:`_HAT3_NM`."""
+    peak = _u(rng, lo, hi, m)
+    w = _u(rng, *fwhm, m)
+    shoulder = _u(rng, 0.03, 0.15, m)[:, None]
+    side = _energy_band(peak + _u(rng, 4.0, 12.0, m), w * _u(rng, 1.2, 1.6, m), _HAT3_NM)
+    return _energy_band(peak, w, _HAT3_NM) + shoulder * side
+
+
+def _led_white_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
+    pump = _blue_pump(rng, m, 440.0, 465.0, (15.0, 25.0))
+    # Green-yellow: YAG:Ce 545–580 nm (105–130 nm FWHM) or LuAG 520–545 nm (90–115 nm).
+    luag = rng.random(m) < 0.35
+    gpeak = np.where(luag, _u(rng, 520.0, 545.0, m), _u(rng, 545.0, 580.0, m))
+    gw = np.where(luag, _u(rng, 90.0, 115.0, m), _u(rng, 105.0, 130.0, m))
+    # Ce³⁺ re-absorbs the blue edge of its own emission (its 4f→5d₁ excitation band peaks at
+    # 445–460 nm, σ ≈ 25 nm): the steep edge that leaves the 'cyan gap' after the pump.
+    reabs = _u(rng, 0.5, 2.0, m)[:, None] * _gauss(_HAT3_NM, _u(rng, 445.0, 460.0, m)[:, None], 25.0)
+    green = _energy_band(gpeak, gw, _HAT3_NM) * np.exp(-reabs)
+    # Red: CaAlSiN₃/(Sr,Ca)AlSiN₃:Eu 610–660 nm, 70–100 nm; a low-energy second green band where
+    # no red phosphor is used (keeps three parts; the solver then finds little of it).
+    red = _energy_band(_u(rng, 610.0, 660.0, m), _u(rng, 70.0, 100.0, m), _HAT3_NM)
+    parts = _hat3(np.stack([pump, green, red], axis=1))
+    parts = _unit_power(parts)
+    fixed = np.zeros((m, N_BANDS))
+    share = np.zeros(m)
+    ksf = rng.random(m) < 0.08  # narrow K₂SiF₆:Mn⁴⁺ red (display-style, some high-efficacy lamps)
+    if np.any(ksf):
+        k = int(ksf.sum())
+        fixed[ksf] = _group_lines(rng, k, [_LineGroup(_KSF, fwhm=(2.0, 4.0), eta=(0.0, 0.3))])
+        share[ksf] = _u(rng, 0.05, 0.2, k)
+    return parts, fixed, share
+
+
+@_family("led_white")
+def led_white(rng: Generator, n: int) -> Array:
+    """Phosphor-converted white LED (blue pump + garnet/LuAG + nitride red), aimed at an ANSI
+    CCT bin in 2200–6500 K near the Planckian locus."""
+    return _white_mix(rng, n, _led_white_parts, _led_targets(2200.0, 6500.0))
+
+
+def _led_violet_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
+    violet = _unit_power(_band_grid(_u(rng, 405.0, 420.0, m), _u(rng, 12.0, 20.0, m)))
+    blue = _unit_power(_band_grid(_u(rng, 445.0, 475.0, m), _u(rng, 40.0, 70.0, m)))
+    v_share = _u(rng, 0.1, 0.5, m)[:, None]
+    vb = (1.0 - v_share) * blue + v_share * violet
+    green = _band_grid(_u(rng, 505.0, 545.0, m), _u(rng, 70.0, 110.0, m))
+    red = _band_grid(_u(rng, 615.0, 655.0, m), _u(rng, 80.0, 100.0, m))
+    parts = _unit_power(np.stack([vb, green, red], axis=1))
+    return parts, np.zeros((m, N_BANDS)), np.zeros(m)
+
+
+@_family("led_violet")
+def led_violet(rng: Generator, n: int) -> Array:
+    """Violet-pumped (405–420 nm) 'full-spectrum' LED with blue, green and red phosphors,
+    aimed at 2700–6500 K."""
+    return _white_mix(rng, n, _led_violet_parts, _led_targets(2700.0, 6500.0))
+
+
+# (peak nm, FWHM range nm, energy-Gaussian band) of colour LEDs; phosphor lime/amber are broad.
+_COLOUR_LEDS = (
+    (450.0, (15.0, 22.0)), (470.0, (18.0, 28.0)), (505.0, (25.0, 35.0)), (525.0, (27.0, 38.0)),
+    (590.0, (14.0, 20.0)), (595.0, (14.0, 20.0)), (615.0, (15.0, 20.0)), (630.0, (16.0, 22.0)),
+    (660.0, (18.0, 25.0)), (560.0, (95.0, 110.0)), (605.0, (75.0, 90.0)),
+)
+# Fixture channel sets (indices into _COLOUR_LEDS); -1 = phosphor white.
+_LED_SETS = ((0, 3, 7), (1, 3, 7), (0, 3, 7, 4), (0, 3, 7, -1), (0, 3, 7, 4, -1), (0, 2, 3, 7, 8),
+             (0, 3, 6, 9), (1, 3, 7, 10), (0, 1, 3, 5, 7, 8))
+
+
+@_family("led_rgb")
+def led_rgb(rng: Generator, n: int) -> Array:
+    """Colour-mixing LED fixtures (RGB, RGBA, RGBW, RGBL, …) at random dimming, plus single- or
+    two-colour LEDs: narrow direct emitters are the extreme case for the model."""
+    nc = len(_COLOUR_LEDS)
+    weights = np.zeros((n, nc + 1))
+    kind = rng.random(n)
+    set_idx = rng.integers(0, len(_LED_SETS), n)
+    for i in range(n):  # building masks only (cheap); spectra are vectorised below
+        if kind[i] < 0.15:
+            chans = rng.choice(nc, 1)
+        elif kind[i] < 0.3:
+            chans = rng.choice(nc, 2, replace=False)
+        else:
+            chans = np.array(_LED_SETS[set_idx[i]])
+        weights[i, chans] = 1.0  # -1 → last column (white)
+    weights *= _logu(rng, 0.03, 1.0, (n, nc + 1))
+    out = np.zeros((n, N_BANDS))
+    for j, (peak, fw) in enumerate(_COLOUR_LEDS):
+        on = weights[:, j] > 0
+        if not np.any(on):
+            continue
+        m = int(on.sum())
+        band = _band_grid(peak + _u(rng, -5.0, 5.0, m), _u(rng, *fw, m))
+        out[on] += weights[on, j, None] * _unit_power(band)
+    white = weights[:, -1] > 0
+    if np.any(white):
+        out[white] += weights[white, -1, None] * _unit_power(led_white(rng, int(white.sum())))
+    return out
+
+
+# ---- fluorescent ----------------------------------------------------------------------------
+def _hg_lines(rng: Generator, m: int, fwhm: tuple[float, float] = (0.5, 2.0)) -> Array:
+    return _group_lines(rng, m, [_LineGroup(HG_LINES_NM, fwhm=fwhm, eta=(0.0, 0.3))], scatter=0.2)
+
+
+def _tri_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
+    blue = _band_grid(_u(rng, 445.0, 455.0, m), _u(rng, 45.0, 58.0, m))  # BAM:Eu²⁺
+    tb = _group_lines(rng, m, [_LineGroup(_TB3, fwhm=(2.0, 6.0), eta=(0.0, 0.4), jitter_nm=0.5)])
+    eu = _group_lines(rng, m, [_LineGroup(_EU3, fwhm=(1.5, 4.0), eta=(0.0, 0.4), jitter_nm=0.3)])
+    parts = _unit_power(np.stack([blue, tb, eu], axis=1))
+    fixed = _hg_lines(rng, m)
+    # Five-band / deluxe lamps add broad bands (e.g. halophosphate, Sn²⁺ red) to the line phosphors.
+    extra = rng.random(m) < 0.25
+    band = _band_grid(_u(rng, 480.0, 640.0, m), _u(rng, 60.0, 120.0, m))
+    fixed = _unit_power(fixed) + extra[:, None] * _u(rng, 0.5, 3.0, m)[:, None] * _unit_power(band)
+    share = _u(rng, 0.04, 0.15, m) + extra * 0.1
+    return parts, fixed, share
+
+
+@_family("fluorescent_tri")
+def fluorescent_tri(rng: Generator, n: int) -> Array:
+    """Tri-phosphor tube / CFL: Hg lines + BAM blue band + Tb³⁺ green + Eu³⁺ red line phosphors,
+    mixed to a nominal lamp CCT (2700–6500 K)."""
+    return _white_mix(rng, n, _tri_parts, _led_targets(2700.0, 6500.0))
+
+
+def _halo_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
+    sb = _band_grid(_u(rng, 470.0, 490.0, m), _u(rng, 110.0, 145.0, m))
+    mn = _band_grid(_u(rng, 575.0, 590.0, m), _u(rng, 70.0, 90.0, m))
+    red = _band_grid(_u(rng, 620.0, 645.0, m), _u(rng, 90.0, 130.0, m))
+    parts = _unit_power(np.stack([sb, mn, red], axis=1))
+    return parts, _hg_lines(rng, m), _u(rng, 0.03, 0.2, m)
+
+
+def _halo_targets(rng: Generator, m: int) -> tuple[Array, Array]:
+    cct = np.where(rng.random(m) < 0.7, rng.choice(np.array([3000.0, 3500.0, 4100.0, 5000.0, 6500.0]), m)
+                   * (1.0 + 0.04 * rng.uniform(-1, 1, m)), _logu(rng, 2700.0, 6800.0, m))
+    return cct, np.clip(0.005 + 0.004 * rng.standard_normal(m), -0.006, 0.015)
+
+
+@_family("fluorescent_halo")
+def fluorescent_halo(rng: Generator, n: int) -> Array:
+    """Halophosphate tube (Ca₅(PO₄)₃(F,Cl):Sb,Mn): broad Sb³⁺ blue + Mn²⁺ orange bands + Hg
+    lines (3–20 % of the luminance); 'deluxe' ones add a broad red band (≤ 35 % of the
+    luminance). Mixed to warm…daylight with the slightly green tint these lamps are known for."""
+    return _white_mix(rng, n, _halo_parts, _halo_targets, part_share=[(0.0, 1.0), (0.0, 1.0), (0.0, 0.35)])
+
+
+# ---- high-intensity discharge ---------------------------------------------------------------
+def _continuum(rng: Generator, n: int, t_lo: float, t_hi: float) -> Array:
+    """Broad background of an arc (recombination, molecular bands, far wings): a Planck shape
+    times a gentle random curve."""
+    bb = planck(GRID, _u(rng, t_lo, t_hi, n)[:, None])
+    freq = _u(rng, 0.5, 2.0, n)[:, None]
+    phase = _u(rng, 0, 2 * math.pi, n)[:, None]
+    wig = np.exp(0.3 * rng.standard_normal((n, 1)) * np.cos(math.pi * (GRID - 380.0) / 400.0 * freq + phase))
+    return _unit_power(bb * wig)
+
+
+def _broad_na_d(rng: Generator, n: int, sep: tuple[float, float], fwhm: tuple[float, float]) -> Array:
+    """Pressure-broadened, self-reversed Na D as two lines either side of 589.3 nm (the red one
+    stronger): enough shape for a 5 nm grid."""
+    d = _u(rng, *sep, n)
+    c = np.stack([589.3 - d, 589.3 + d * _u(rng, 1.0, 1.5, n)], 1)
+    w = np.repeat(_u(rng, *fwhm, n)[:, None], 2, 1)
+    a = np.stack([np.ones(n), _u(rng, 1.0, 2.0, n)], 1)
+    return lines_on_grid(c, w, a, _u(rng, 0.3, 0.8, n)[:, None])
+
+
+_MH_GROUPS = (
+    _LineGroup(HG_LINES_NM, p=0.95, power=(0.1, 0.6), fwhm=(1.0, 5.0), eta=(0.2, 0.7)),
+    _LineGroup(_NA_MINOR, p=0.7, power=(0.05, 0.3), fwhm=(1.0, 5.0), eta=(0.2, 0.7)),
+    _LineGroup(_TL, p=0.6, power=(0.05, 0.5), fwhm=(0.5, 4.0), eta=(0.2, 0.7)),
+    _LineGroup(_IN, p=0.35, power=(0.1, 0.6), fwhm=(0.5, 4.0), eta=(0.2, 0.7)),
+    _LineGroup(_SC, p=0.4, power=(0.1, 0.8), fwhm=(0.5, 3.0), eta=(0.1, 0.6)),
+    _LineGroup(_LI, p=0.3, power=(0.05, 0.4), fwhm=(0.5, 3.0), eta=(0.1, 0.6)),
+    _LineGroup(_CA, p=0.25, power=(0.05, 0.3), fwhm=(0.5, 3.0), eta=(0.1, 0.6)),
+    _LineGroup(_SR, p=0.15, power=(0.05, 0.3), fwhm=(0.5, 3.0), eta=(0.1, 0.6)),
+    _LineGroup(_DY_HO_TM, p=0.4, power=(0.1, 0.8), fwhm=(0.5, 3.0), eta=(0.1, 0.6), jitter_nm=0.2),
+    _LineGroup(_K, p=0.1, power=(0.02, 0.2), fwhm=(1.0, 5.0), eta=(0.2, 0.7)),
+)
+
+
+def _mh_raw(rng: Generator, n: int) -> Array:
+    lines = _group_lines(rng, n, _MH_GROUPS)
+    na_power = (rng.random(n) < 0.75) * _logu(rng, 0.1, 1.0, n)
+    na = na_power[:, None] * _broad_na_d(rng, n, (1.5, 6.0), (3.0, 8.0))
+    forest_power = (rng.random(n) < 0.5) * _logu(rng, 0.2, 2.0, n)
+    forest = _random_lines(rng, n, (10, 60), 390.0, 660.0, (0.5, 3.0), forest_power)
+    lines = lines + na + forest
+    cont = _continuum(rng, n, 3000.0, 7000.0)
+    f = _u(rng, 0.05, 0.6, n)[:, None]
+    return (1.0 - f) * _unit_power(lines) + f * cont
+
+
+@_family("metal_halide")
+def metal_halide(rng: Generator, n: int) -> Array:
+    """Quartz / ceramic metal halide and HMI: Hg + additive lines (Na, Tl, In, Sc, Li, Ca, Sr,
+    Dy/Ho/Tm), a broadened Na D, a rare-earth line forest and an arc continuum. Lamp makers
+    balance the fill for white light, so 85 % of rows are redrawn until CCT 2500–8000 K and
+    |Duv| < 0.02; the rest keep any colour (coloured and aged lamps)."""
+    out = _mh_raw(rng, n)
+    todo = np.flatnonzero(rng.random(n) < 0.85)
+    for _ in range(100):
+        cct, duv = _cct_duv(out[todo])
+        todo = todo[(cct < 2500.0) | (cct > 8000.0) | (np.abs(duv) > 0.02)]
+        if todo.size == 0:
+            break
+        out[todo] = _mh_raw(rng, todo.size)
+    return out
+
+
+@_family("hps")
+def hps(rng: Generator, n: int) -> Array:
+    """High-pressure sodium (standard to 'white SON'): optically thick, pressure-broadened Na D
+    (saturated at the arc's temperature, red wing wider) self-reversed by the cooler outer layer,
+    + Na minor lines, Hg amalgam lines, a weak continuum. Built on the fine grid."""
+    lam = FINE_NM[None, :]
+    x = lam - 589.3
+    half_b = _logu(rng, 4.0, 30.0, n)[:, None]  # extent of the saturated core, blue side
+    half_r = half_b * _u(rng, 1.2, 2.0, n)[:, None]
+    half = np.where(x < 0, half_b, half_r)
+    tau0 = _logu(rng, 30.0, 3000.0, n)[:, None]
+    gamma = half / np.sqrt(tau0)
+    core = -np.expm1(-tau0 / (1.0 + (x / gamma) ** 2)) * planck(lam, _u(rng, 3000.0, 4500.0, n)[:, None])
+    dip_half = np.minimum(_u(rng, 1.5, 8.0, n)[:, None], 0.7 * half_b)
+    tc0 = _logu(rng, 3.0, 300.0, n)[:, None]
+    gc = dip_half / np.sqrt(tc0)
+    profile = core * np.exp(-tc0 / (1.0 + (x / gc) ** 2))
+    d_line = _unit_power(fine_to_grid(profile))
+    groups = [_LineGroup(_NA_MINOR, power=(0.05, 0.25), fwhm=(1.0, 6.0), eta=(0.3, 0.8)),
+              _LineGroup(HG_LINES_NM, p=0.6, power=(0.005, 0.05), fwhm=(0.5, 2.0), eta=(0.0, 0.3)),
+              _LineGroup(_XE, p=0.3, power=(0.002, 0.02), fwhm=(0.5, 2.0))]
+    minor = _group_lines(rng, n, groups)
+    cont = _continuum(rng, n, 2500.0, 5000.0) * _u(rng, 0.0, 0.1, n)[:, None]
+    return d_line + minor + cont
+
+
+@_family("lps")
+def lps(rng: Generator, n: int) -> Array:
+    """Low-pressure sodium: the 589.0/589.6 nm doublet almost alone; weak Na minor lines and
+    Ne/Ar starting-gas lines (stronger while warming up)."""
+    groups = [_LineGroup(_NA_D, power=(1.0, 1.0), fwhm=(0.5, 1.5), eta=(0.0, 0.3)),
+              _LineGroup(_NA_MINOR, power=(0.005, 0.03), fwhm=(0.5, 1.5)),
+              _LineGroup(_NE, p=0.6, power=(0.002, 0.1), fwhm=(0.5, 1.5)),
+              _LineGroup(_AR, p=0.3, power=(0.001, 0.03), fwhm=(0.5, 1.5))]
+    glow = _continuum(rng, n, 2000.0, 4000.0) * _logu(rng, 1e-3, 2e-2, n)[:, None]
+    return _group_lines(rng, n, groups) + glow
+
+
+@_family("mercury")
+def mercury(rng: Generator, n: int) -> Array:
+    """High-pressure mercury vapour, clear or with a red phosphor (YVO₄:Eu³⁺ or Mn⁴⁺ germanate)."""
+    groups = [_LineGroup(HG_LINES_NM, power=(1.0, 1.0), fwhm=(1.0, 5.0), eta=(0.2, 0.7)),
+              _LineGroup(_EU_YVO4, p=0.4, power=(0.1, 0.6), fwhm=(1.0, 4.0), eta=(0.0, 0.4)),
+              _LineGroup(_MN4_GERMANATE, p=0.15, power=(0.1, 0.4), fwhm=(2.0, 6.0), eta=(0.0, 0.4))]
+    cont = _continuum(rng, n, 4000.0, 8000.0) * _u(rng, 0.05, 0.4, n)[:, None]
+    return _group_lines(rng, n, groups) + cont
+
+
+@_family("xenon")
+def xenon(rng: Generator, n: int) -> Array:
+    """Xenon short arc / flash: a ≈5300–6500 K continuum with Xe lines in 450–500 nm; flashes
+    often behind a UV / warming coating."""
+    cont = planck(GRID, _u(rng, 5300.0, 6500.0, n)[:, None])
+    cont = _unit_power(cont * np.exp(0.05 * rng.standard_normal((n, 1)) * (GRID - 580.0) / 200.0))
+    lines = _group_lines(rng, n, [_LineGroup(_XE, power=(0.005, 0.04), fwhm=(1.0, 5.0), eta=(0.2, 0.7))])
+    coat = np.where((rng.random(n) < 0.3)[:, None],
+                    0.05 + 0.95 * _sigmoid((GRID - _u(rng, 390.0, 430.0, n)[:, None]) / 6.0), 1.0)
+    return (cont + lines) * coat
+
+
+# ---- filters --------------------------------------------------------------------------------
+def _filter_transmission(rng: Generator, n: int) -> Array:
+    """Random gel / filter transmission on the grid: long-, short-, band-pass, notch, mired
+    shift (CTO/CTB), or a random dye curve; raised to a density and floored (real gels leak)."""
+    lam = GRID[None, :]
+    kind = rng.integers(0, 6, n)[:, None]
+    c1 = _u(rng, 400.0, 680.0, n)[:, None]
+    c2 = c1 + _u(rng, 30.0, 200.0, n)[:, None]
+    s1 = _u(rng, 5.0, 40.0, n)[:, None]
+    s2 = _u(rng, 5.0, 40.0, n)[:, None]
+    lp = _sigmoid((lam - c1) / s1)
+    sp = _sigmoid((c1 - lam) / s1)
+    bp = _sigmoid((lam - c1) / s1) * _sigmoid((c2 - lam) / s2)
+    notch = 1.0 - _u(rng, 0.3, 0.95, n)[:, None] * _gauss(lam, _u(rng, 480.0, 620.0, n)[:, None],
+                                                         _u(rng, 15.0, 60.0, n)[:, None])
+    mired = _u(rng, -150.0, 160.0, n)[:, None] * 1e-6  # CTB < 0 < CTO (full CTO ≈ +159 mired)
+    shift = np.exp(-C2_NM_K * mired / lam)
+    shift /= shift.max(1, keepdims=True)
+    dye = np.exp(-np.abs(_smooth_curves(rng, n)) * _u(rng, 0.5, 3.0, n)[:, None])
+    t = np.select([kind == 0, kind == 1, kind == 2, kind == 3, kind == 4], [lp, sp, bp, notch, shift], dye)
+    red_leak = (rng.random(n) < 0.3)[:, None] * _sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None]) / 10.0)
+    t = np.maximum(t, red_leak * _u(rng, 0.2, 0.9, n)[:, None])
+    t = t ** _logu(rng, 0.3, 3.0, n)[:, None]
+    floor = _logu(rng, 1e-3, 5e-2, n)[:, None]
+    return floor + (1.0 - floor) * t
+
+
+_FILTER_BASES = ("blackbody", "incandescent", "daylight", "led_white", "led_violet", "led_rgb",
+                 "fluorescent_tri", "fluorescent_halo", "metal_halide", "hps", "mercury", "xenon")
+
+
+@_family("filtered")
+def filtered(rng: Generator, n: int) -> Array:
+    """A physical source behind a colour gel or filter (stage, film and photo lighting). The
+    source family is drawn with :data:`DEFAULT_WEIGHTS` (``sample_spds(weights=…)`` does not
+    reach inside) and the row is labelled ``filtered``."""
+    w = np.array([DEFAULT_WEIGHTS[f] for f in _FILTER_BASES])
+    base_idx = rng.choice(len(_FILTER_BASES), n, p=w / w.sum())
+    out = np.empty((n, N_BANDS))
+    for k, fam in enumerate(_FILTER_BASES):
+        idx = np.flatnonzero(base_idx == k)
+        if idx.size:
+            out[idx] = _GENERATORS[fam](rng, idx.size)
+    return peak_normalise(out) * _filter_transmission(rng, n)
+
+
+# ---------------------------------------------------------------------------------------------
+# Public sampling
+# ---------------------------------------------------------------------------------------------
+#: Default relative weights (normalised at use). Generic 20 %, thermal 11 %, daylight 8 %,
+#: LEDs 26 %, fluorescent 11 %, HID & arcs 12 %, filtered 12 %.
+DEFAULT_WEIGHTS: dict[str, float] = {
+    "smooth": 0.08,
+    "smooth_noise": 0.05,
+    "spiky": 0.07,
+    "blackbody": 0.04,
+    "incandescent": 0.07,
+    "daylight": 0.08,
+    "led_white": 0.14,
+    "led_violet": 0.04,
+    "led_rgb": 0.08,
+    "fluorescent_tri": 0.08,
+    "fluorescent_halo": 0.03,
+    "metal_halide": 0.05,
+    "hps": 0.03,
+    "lps": 0.01,
+    "mercury": 0.01,
+    "xenon": 0.02,
+    "filtered": 0.12,
+}
+
+FAMILIES: tuple[str, ...] = tuple(DEFAULT_WEIGHTS)
+assert set(FAMILIES) == set(_GENERATORS), "every family needs a generator and a weight"
+
+
+def sample_spds(
+    n: int,
+    rng: np.random.Generator,
+    families: Sequence[str] | None = None,
+    weights: Mapping[str, float] | None = None,
+) -> tuple[Array, list[str]]:
+    """Draw ``n`` peak-normalised SPDs on the 81-sample grid and the family label of each row.
+
+    Families are drawn with ``weights`` (default :data:`DEFAULT_WEIGHTS`), restricted to
+    ``families`` when given. Same generator state → same output.
+    """
+    fams = tuple(families) if families is not None else FAMILIES
+    table = DEFAULT_WEIGHTS if weights is None else dict(weights)
+    unknown = (set(fams) | set(table)) - set(FAMILIES)
+    if unknown:
+        raise ValueError(f"unknown families: {sorted(unknown)}")
+    if not fams:
+        raise ValueError("no families to sample from")
+    w = np.array([float(table.get(f, 0.0)) for f in fams])
+    if np.any(w < 0) or not np.isfinite(w).all() or w.sum() <= 0:
+        raise ValueError("family weights must be finite, non-negative and not all zero")
+    n = int(n)
+    if n < 0:
+        raise ValueError("n must be non-negative")
+    label_idx = rng.choice(len(fams), size=n, p=w / w.sum())
+    out = np.empty((n, N_BANDS))
+    for k, fam in enumerate(fams):
+        idx = np.flatnonzero(label_idx == k)
+        if idx.size:
+            out[idx] = _generate(fam, rng, idx.size)
+    return out, [fams[i] for i in label_idx]
+
+
+
+@cache
+def gaussian_prior(n: int = 50_000, seed: int = 20240) -> GaussianPrior:
+    """Mean and covariance of the prior's spectra: the physics solve's Gaussian prior (baked into
+    the model's metadata; a fixed seed so every build gets the same numbers)."""
+    spds, _ = sample_spds(n, np.random.default_rng(seed))
+    return GaussianPrior.from_samples(spds)

@@ -1,0 +1,227 @@
+"""Train the spectral model on the synthetic dataset and export it to ONNX (``make model``).
+
+    python -m training.train [--set full|smoke] [--n-per-cube N] [--epochs N] [--seed N]
+                             [--out models/] [--engine cycles|numpy]
+
+Seeded end to end (prior, photos, split, initialisation, batches). Writes
+``<out>/cd_spectra.onnx`` and its metadata ``<out>/cd_spectra.json``, checks onnxruntime against
+torch (max |Δ| ≤ 1e-5) and refuses to write a model that fails the check.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from cd_spectra_addon import __version__
+from cd_spectra_addon.core import geometry, profile, solve
+from cd_spectra_addon.core.capture import preset_names, PRESET_DIR
+from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash
+from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+
+from .basis import REPO
+from .dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
+from .spd_prior import gaussian_prior
+
+BAND_WEIGHT = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 1.0, 0.5)
+
+__all__ = ["SpectralNet", "train", "export_onnx", "main"]
+
+
+class SpectralNet(nn.Module):
+    """MLP from the model inputs to a peak-normalised SPD and a log standard deviation.
+
+    The physics-only solution is both an input and a skip path (the network learns a correction
+    on top of it in softplus space), so an untrained or unsure network falls back on physics.
+    """
+
+    def __init__(self, hidden: tuple[int, ...] = (512, 512, 256), physics_slice: tuple[int, int] | None = None):
+        super().__init__()
+        layers: list[nn.Module] = []
+        width = INPUT_SIZE
+        for h in hidden:
+            layers += [nn.Linear(width, h), nn.GELU()]
+            width = h
+        self.body = nn.Sequential(*layers)
+        self.spd = nn.Linear(width, len(WAVELENGTHS_NM))
+        self.log_std = nn.Linear(width, len(WAVELENGTHS_NM))
+        self.physics_slice = physics_slice or _slice("physics")
+        self.skip = nn.Parameter(torch.tensor(1.0))
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        h = self.body(x)
+        a, b = self.physics_slice
+        raw = nn.functional.softplus(self.spd(h) + self.skip * 4.0 * (x[:, a:b] - 0.5))
+        spd = raw / raw.amax(dim=1, keepdim=True).clamp_min(1e-12)
+        return spd, self.log_std(h).clamp(-9.0, 1.0)
+
+
+def _slice(name: str) -> tuple[int, int]:
+    start = 0
+    for key, n in INPUT_LAYOUT:
+        if key == name:
+            return start, start + n
+        start += n
+    raise KeyError(name)
+
+
+def loss_fn(spd: torch.Tensor, log_std: torch.Tensor, target: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
+    """Band-weighted L1 plus a Laplace likelihood that calibrates the uncertainty."""
+    err = (spd - target).abs()
+    l1 = (err * weight).mean()
+    nll = ((err.detach() / log_std.exp() + log_std) * weight).mean()
+    return l1 + 0.05 * nll
+
+
+def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int, ...] = (512, 512, 256),
+          batch: int = 256, lr: float = 2e-3, log=print) -> tuple[SpectralNet, dict[str, Any]]:
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    x = torch.from_numpy(data["inputs"].astype(np.float32))
+    y = torch.from_numpy(data["targets"].astype(np.float32))
+    n = x.shape[0]
+    order = rng.permutation(n)
+    n_val = max(1, n // 10)
+    val, tr = order[:n_val], order[n_val:]
+    model = SpectralNet(hidden)
+    opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-4)
+    steps = epochs * max(1, len(tr) // batch)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=steps, pct_start=0.1)
+    weight = torch.from_numpy(BAND_WEIGHT.astype(np.float32))
+    gen = torch.Generator().manual_seed(seed)
+    history = []
+    start = time.perf_counter()
+    for epoch in range(epochs):
+        model.train()
+        perm = torch.from_numpy(tr)[torch.randperm(len(tr), generator=gen)]
+        for i in range(0, len(perm) - batch + 1, batch):
+            idx = perm[i:i + batch]
+            spd, log_std = model(x[idx])
+            loss = loss_fn(spd, log_std, y[idx], weight)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+        if epoch % 10 == 9 or epoch == epochs - 1:
+            model.eval()
+            with torch.no_grad():
+                spd, _ = model(x[val])
+                mae = float((spd - y[val]).abs().mean())
+            history.append({"epoch": epoch + 1, "val_mae": mae})
+            log(f"epoch {epoch + 1}: synthetic validation MAE {mae:.4f}")
+    info = {"epochs": epochs, "train_samples": int(len(tr)), "val_samples": int(n_val),
+            "seconds": time.perf_counter() - start, "history": history, "hidden": list(hidden),
+            "val_mae": history[-1]["val_mae"]}
+    return model.eval(), info
+
+
+def export_onnx(model: SpectralNet, path: Path, metadata: dict[str, Any]) -> float:
+    """Write the ONNX file (opset 17, metadata in metadata_props) and return the max |Δ| between
+    onnxruntime and torch on random and real-looking inputs."""
+    import onnx
+    import onnxruntime as ort
+
+    dummy = torch.zeros(1, INPUT_SIZE)
+    tmp = path.with_suffix(".tmp.onnx")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        torch.onnx.export(model, (dummy,), str(tmp), input_names=["inputs"], output_names=["spd", "log_std"],
+                          dynamic_axes={"inputs": {0: "batch"}, "spd": {0: "batch"}, "log_std": {0: "batch"}},
+                          opset_version=17, dynamo=False)
+    proto = onnx.load(str(tmp))
+    for key in ("version", "layout_hash", "data_hash", "wavelength_nm"):
+        entry = proto.metadata_props.add()
+        entry.key, entry.value = key, json.dumps(metadata[key]) if not isinstance(metadata[key], str) else metadata[key]
+    proto.producer_name = "cd-spectra"
+    onnx.checker.check_model(proto)
+    onnx.save(proto, str(tmp))
+    session = ort.InferenceSession(str(tmp), providers=["CPUExecutionProvider"])
+    probe = torch.rand(64, INPUT_SIZE, generator=torch.Generator().manual_seed(1))
+    with torch.no_grad():
+        ref_spd, ref_std = model(probe)
+    spd, log_std = session.run(["spd", "log_std"], {"inputs": probe.numpy()})
+    diff = max(float(np.abs(spd - ref_spd.numpy()).max()), float(np.abs(log_std - ref_std.numpy()).max()))
+    if diff > 1e-5:
+        tmp.unlink()
+        raise RuntimeError(f"onnxruntime and torch disagree by {diff:.2e} (> 1e-5); model not written")
+    os.replace(tmp, path)
+    return diff
+
+
+def _presets_digest() -> dict[str, str]:
+    return {name: hashlib.sha256((PRESET_DIR / f"{name}.json").read_bytes()).hexdigest()[:16]
+            for name in preset_names()}
+
+
+def write_json(path: Path, payload: dict[str, Any]) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".json")
+    with os.fdopen(fd, "w", encoding="utf-8") as handle:
+        json.dump(payload, handle, indent=1)
+        handle.write("\n")
+    os.replace(tmp, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--set", default="full", choices=sorted(CUBE_SETS))
+    parser.add_argument("--n-per-cube", type=int, default=2500)
+    parser.add_argument("--epochs", type=int, default=60)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--hidden", type=int, nargs="+", default=[512, 512, 256])
+    parser.add_argument("--out", type=Path, default=REPO / "models")
+    args = parser.parse_args(argv)
+    torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
+    t0 = time.perf_counter()
+    path = build_dataset(args.set, args.n_per_cube, args.seed, args.engine, workers=args.workers)
+    data = dict(np.load(path))
+    model, info = train(data, args.epochs, args.seed, tuple(args.hidden))
+    train_cams, held = camera_split()
+    prior = gaussian_prior()
+    args.out.mkdir(parents=True, exist_ok=True)
+    metadata: dict[str, Any] = {
+        "name": MODEL_NAME,
+        "version": f"{__version__}+{str(data['key'])}",
+        "layout_hash": layout_hash(),
+        "data_hash": str(data["key"]),
+        "wavelength_nm": WAVELENGTHS_NM.tolist(),
+        "feature_lambda_nm": profile.FEATURE_LAMBDA_NM.tolist(),
+        "input_layout": [list(item) for item in INPUT_LAYOUT],
+        "preprocessing": {"fit_side": geometry.FIT_SIDE, "min_visibility": profile.MIN_VISIBILITY,
+                          "outlier_mads": profile.OUTLIER_MADS, "feature_step_nm": profile.FEATURE_STEP_NM,
+                          "smoothness": solve.SMOOTHNESS, "model_error_floor": solve.MODEL_ERROR_FLOOR},
+        "presets": _presets_digest(),
+        "cameras": {"train": train_cams, "held_out": held},
+        "generic_camera": generic_sensitivities(train_cams).round(6).tolist(),
+        "training": {**info, "cube_set": args.set, "cubes": [c.name for c in CUBE_SETS[args.set]],
+                     "n_per_cube": args.n_per_cube, "seed": args.seed, "engine": args.engine,
+                     "total_seconds": None},
+        "metrics": {},
+        "prior": {"mean": prior.mean.round(7).tolist(), "covariance": prior.covariance.round(9).tolist(),
+                  "strength": solve.PRIOR_STRENGTH, "jitter": solve.PRIOR_JITTER,
+                  "source": "training.spd_prior.gaussian_prior() (synthetic spectra only)"},
+    }
+    onnx_path = args.out / f"{MODEL_NAME}.onnx"
+    diff = export_onnx(model, onnx_path, metadata)
+    metadata["onnx_parity_max_abs_diff"] = diff
+    metadata["training"]["total_seconds"] = time.perf_counter() - t0
+    write_json(onnx_path.with_suffix(".json"), metadata)
+    print(f"wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB), parity {diff:.1e}, "
+          f"{metadata['training']['total_seconds'] / 60:.1f} min")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
