@@ -23,9 +23,6 @@ from typing import Any, Iterator
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-# Light colours come from core.colour (branch `colour`); until it is merged those tests skip.
-needs_colour = pytest.mark.skipif(not (ROOT / "cd_spectra_addon" / "core" / "colour.py").is_file(),
-                                  reason="core.colour is not merged yet")
 REPO_MODULE = "cd_spectra_test"
 ADDON_MODULE = f"bl_ext.{REPO_MODULE}.cd_spectra"
 
@@ -160,3 +157,20 @@ def last_json_line(text: str) -> dict[str, Any]:
         if line.startswith("{"):
             return json.loads(line)
     raise AssertionError(f"no JSON line in output:\n{text[-3000:]}")
+
+
+def render_sample_photo(out_dir: Path, temperature_k: float = 2856.0) -> Path:
+    """A synthetic CD photo of a blackbody lamp by ``training.render_photo`` (numpy engine, 256 px)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    table = out_dir / "lamp.csv"
+    wl = [380.0 + 5.0 * i for i in range(81)]
+    table.write_text("wavelength_nm,lamp\n" + "".join(
+        f"{w},{v}\n" for w, v in zip(wl, blackbody_spd(temperature_k))), encoding="utf-8")
+    subprocess.run([sys.executable, "-m", "training.render_photo", "--spd", str(table), "--out",
+                    str(out_dir / "photos"), "--engine", "numpy", "--size", "256", "--format", "png",
+                    "--cache-dir", str(out_dir / "cache")], cwd=ROOT, check=True, capture_output=True, timeout=600)
+    return out_dir / "photos" / "lamp.png"
+
+
+def shipped_model_present() -> bool:
+    return (ROOT / "models" / "cd_spectra.onnx").is_file()

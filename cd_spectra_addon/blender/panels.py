@@ -16,6 +16,14 @@ from .node_group import curve_node
 from .registration import register_classes, unregister_classes
 
 CATEGORY = "CD Spectra"
+# core.colour.compare_spds keys worth showing, with their labels and formats.
+METRICS = (
+    ("mae_400_700", "MAE 400–700 nm", "{:.3f}"),
+    ("mae_380_780", "MAE 380–780 nm", "{:.3f}"),
+    ("delta_uv_prime", "Δu′v′", "{:.4f}"),
+    ("delta_cct_k", "ΔCCT", "{:+.0f} K"),
+    ("pearson_r", "Shape r", "{:.3f}"),
+)
 
 
 def _settings(context: bpy.types.Context) -> Any:
@@ -135,9 +143,10 @@ class CDSPECTRA_PT_compare(_SidebarPanel, bpy.types.Panel):
             layout.label(text="Estimate an SPD to compare", icon="INFO")
         else:
             grid = layout.grid_flow(row_major=True, columns=2, even_columns=True, align=True)
-            for key, value in metrics.items():
-                grid.label(text=key.replace("_", " "))
-                grid.label(text=f"{value:.4f}")
+            for key, label, fmt in METRICS:
+                if isinstance(metrics.get(key), (int, float)):
+                    grid.label(text=label)
+                    grid.label(text=fmt.format(metrics[key]))
         for title, group in (("Estimate", settings.node_group), ("Reference", settings.reference_node_group)):
             node = curve_node(group)
             if node is not None:

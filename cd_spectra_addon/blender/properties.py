@@ -36,13 +36,13 @@ LIGHT_TYPES = [
     ("SUN", "Sun", "Sun light (daylight, far sources)", "LIGHT_SUN", 3),
 ]
 
+# Identifiers = core.calibration.KNOWN_LAMPS (tested), plus a metered spectrum file.
 REFERENCE_LAMPS = [
-    ("CIE_A", "Household bulb (CIE A)",
-     "Incandescent or halogen bulb: close to CIE illuminant A (2856 K)", 0),
-    ("D50", "Daylight D50", "Direct sun low in the sky / horizon light (5003 K)", 1),
-    ("D55", "Daylight D55", "Direct midday sun (5503 K)", 2),
-    ("D65", "Daylight D65", "Overcast daylight (6504 K)", 3),
-    ("FILE", "Spectrum file", "A spectrum measured by a meter (CSV, JSON, TM-27-14 XML)", 4),
+    ("incandescent", "Household bulb (CIE A)",
+     "Incandescent or halogen bulb: close to CIE illuminant A, 2856 K", 0),
+    ("daylight", "Direct sunlight (D55)", "Direct sun on a clear day: CIE D55, 5503 K", 1),
+    ("daylight-d65", "Overcast daylight (D65)", "Overcast sky: CIE D65, 6504 K", 2),
+    ("FILE", "Spectrum file", "The lamp's spectrum measured by a meter (CSV, JSON, pbrt, TM-27-14)", 3),
 ]
 
 # Blender keeps only pointers to enum item strings: the lists must stay alive in Python.
@@ -140,7 +140,7 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     calibration_photo: StringProperty(
         name="Photo of known lamp", subtype="FILE_PATH",
         description="Photo of the CD under a lamp whose spectrum is known, same camera and set-up")
-    calibration_lamp: EnumProperty(name="Known lamp", items=REFERENCE_LAMPS, default="CIE_A")
+    calibration_lamp: EnumProperty(name="Known lamp", items=REFERENCE_LAMPS, default="incandescent")
     calibration_spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH",
                                          description="The lamp's spectrum as measured by a meter")
     calibration_name: StringProperty(name="Profile name", default="my-camera",

@@ -7,17 +7,16 @@ names directly.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-# identifier → (label, extension, name of the writer in core.spectra_files, description)
-_FORMATS: tuple[tuple[str, str, str, str, str], ...] = (
-    ("CSV", "CSV", ".csv", "write_spd_csv", "Wavelength and relative power, one row per 5 nm"),
-    ("JSON", "JSON", ".json", "write_spd_json", "The SPD with its colour metrics and provenance"),
-    ("PBRT", "pbrt-v4", ".spd", "write_spd_pbrt", "pbrt-v4 spectrum file (wavelength value pairs)"),
-    ("TM2714", "IES TM-27-14", ".xml", "write_spd_tm2714", "IES TM-27-14 spectral data XML"),
+# identifier, label, extension, writer in core.spectra_files, takes metadata, description
+_FORMATS: tuple[tuple[str, str, str, str, bool, str], ...] = (
+    ("CSV", "CSV", ".csv", "write_spd_csv", False, "Wavelength and relative power, one row per 5 nm"),
+    ("JSON", "JSON", ".json", "write_spd_json", True, "The SPD with its colour metrics and provenance"),
+    ("PBRT", "pbrt-v4", ".spd", "write_spd_pbrt", False, "pbrt-v4 spectrum file (wavelength value pairs)"),
+    ("TM2714", "IES TM-27-14", ".xml", "write_spd_tm2714", True, "IES TM-27-14 spectral data XML"),
 )
 
 
@@ -27,59 +26,50 @@ class ExportFormat:
     label: str
     extension: str
     writer: Callable[..., Any]
+    takes_metadata: bool
     description: str
 
 
+def _tm2714_available() -> bool:
+    """TM-27-14 XML is written through colour-science, which Blender does not bundle."""
+    import importlib.util
+
+    return importlib.util.find_spec("colour") is not None
+
+
 def export_formats() -> list[ExportFormat]:
-    """The formats the core can write (TM-27-14 only once its writer exists)."""
-    try:
-        from ..core import spectra_files
-    except ImportError:
-        return []
+    """The formats the core can write here (TM-27-14 only where colour-science is installed)."""
+    from ..core import spectra_files
+
     found = []
-    for identifier, label, ext, func, description in _FORMATS:
+    for identifier, label, ext, func, takes_metadata, description in _FORMATS:
         writer = getattr(spectra_files, func, None)
-        if callable(writer):
-            found.append(ExportFormat(identifier, label, ext, writer, description))
+        if callable(writer) and (identifier != "TM2714" or _tm2714_available()):
+            found.append(ExportFormat(identifier, label, ext, writer, takes_metadata, description))
     return found
 
 
 def write_spd(fmt: ExportFormat, path: str | Path, spd: Sequence[float], meta: dict[str, Any]) -> Path:
-    """Write through a temporary file in the same folder, then rename: no half-written file."""
-    import tempfile
-
+    """Write one SPD (the core's writers are atomic: no half-written file, ever)."""
     import numpy as np
 
     target = Path(path)
     if target.suffix.lower() != fmt.extension:
         target = target.with_suffix(fmt.extension)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=fmt.extension, dir=target.parent)
-    os.close(fd)
-    try:
-        fmt.writer(tmp_name, np.asarray(spd, dtype=np.float64), name=meta.get("name") or target.stem,
-                   metadata=meta)
-        os.replace(tmp_name, target)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
-    return target
+    name = str(meta.get("name") or target.stem)
+    values = np.asarray(spd, dtype=np.float64)
+    if fmt.takes_metadata:
+        return Path(fmt.writer(target, values, name=name, metadata=meta))
+    return Path(fmt.writer(target, values, name=name))
 
 
 def read_reference(path: str | Path) -> tuple[str, list[float]]:
-    """(name, SPD on the 81-band grid) of a spectrum file; ValueError with a reason if unreadable.
+    """(name, SPD on the 81-band grid) of a spectrum file (CSV/TSV/TXT, JSON, pbrt .spd,
+    TM-27-14 XML); CDSpectraError with a reason if unreadable."""
+    from ..core.spectra_files import read_reference_spd
 
-    Uses the core's reader of every supported format where present, else its CSV table reader
-    (first spectrum of the table).
-    """
-    from ..core import spectra_files
-
-    reader = getattr(spectra_files, "read_reference_spd", None)
-    if reader is not None:
-        name, spd = reader(path)
-        return str(name), [float(v) for v in spd]
-    table = spectra_files.read_spectra_csv(path)
-    return table.names[0], [float(v) for v in table.on_grid()[0]]
+    name, spd = read_reference_spd(path)
+    return str(name), [float(v) for v in spd]
 
 
 def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, float]:
@@ -93,8 +83,7 @@ def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, 
 
 
 def standard_lamp(identifier: str) -> list[float]:
-    """SPD of a standard illuminant (CIE A, D50, D55, D65) on the product grid."""
-    from ..core import colour
+    """SPD of a known calibration lamp (core.calibration.KNOWN_LAMPS) on the product grid."""
+    from ..core.calibration import known_lamp_spd
 
-    spd = colour.standard_illuminant(identifier.replace("CIE_", ""))
-    return [float(v) for v in spd]
+    return [float(v) for v in known_lamp_spd(identifier)]

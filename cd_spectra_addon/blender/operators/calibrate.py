@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import bpy
@@ -10,7 +11,7 @@ from bpy.props import EnumProperty, StringProperty
 from ...core.errors import CDSpectraError
 from .. import state
 from ..progress import progress
-from ..properties import PHOTO_FILTER_GLOB, REFERENCE_LAMPS
+from ..properties import PHOTO_FILTER_GLOB, REFERENCE_LAMPS, calibration_names
 
 
 class CDSPECTRA_OT_calibrate(bpy.types.Operator):
@@ -24,7 +25,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
     filepath: StringProperty(name="Photo of known lamp", subtype="FILE_PATH", options={"SKIP_SAVE"})
     filter_glob: StringProperty(default=PHOTO_FILTER_GLOB, options={"HIDDEN"})
     lamp: EnumProperty(name="Known lamp", items=[(i, n, d) for i, n, d, _ in REFERENCE_LAMPS],
-                       default="CIE_A")
+                       default="incandescent")
     spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH", options={"SKIP_SAVE"})
     profile_name: StringProperty(name="Profile name", options={"SKIP_SAVE"})
 
@@ -79,6 +80,8 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
                 return {"CANCELLED"}
         settings.calibration_photo = self.filepath or settings.calibration_photo
         settings.calibration_name = name
-        settings.calibration = name  # the new profile is the one to use from now on
-        self.report({"INFO"}, f"Saved calibration profile {name} ({profile})")
+        saved_as = Path(profile).stem  # the profile's name is its file's (the core makes names file-safe)
+        if saved_as in calibration_names():
+            settings.calibration = saved_as  # the new profile is the one to use from now on
+        self.report({"INFO"}, f"Saved calibration profile {saved_as} ({profile})")
         return {"FINISHED"}
