@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo bench-render extension clean
+.PHONY: setup test demo model eval bench bench-render tune-solver extension clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -23,8 +23,23 @@ demo: setup
 	$(PY) -m training.render_photo --spd samples/demo_lamps.csv --out out/demo --size 256 --noise 0.01 --format jpg
 	@echo "sample CD photos written to out/demo/"
 
+# Rebuild models/ from nothing (Cycles basis cubes, dataset, training, ONNX export), seeded.
+model: setup
+	$(PY) -m training.render_cubes --set full --engine cycles
+	$(PY) -m training.train --set full
+
+eval: setup
+	$(PY) -m training.evaluate --out bench/eval.md
+	$(PY) -m training.model_card
+
+bench: setup
+	$(PY) -m training.bench --out bench/bench.md
+
 bench-render: setup
 	$(PY) -m training.bench_render --out bench/render.md
+
+tune-solver: setup
+	$(PY) -m training.tune_solver --out bench/solver_tuning.md
 
 # Blender extension zips (one per platform) in dist/, validated and smoke-tested; wheels are
 # downloaded from PyPI into build/wheels/ (git-ignored) on first use.

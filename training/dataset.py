@@ -126,6 +126,7 @@ class Degradation:
     gain_error: float = 0.02  # camera unit vs its published curve, per channel (std)
     shift_error_nm: float = 1.0  # wavelength shift of the curve (std)
     generic_probability: float = 0.2
+    upsample: int = 2  # photo pixels per cube pixel; the loader reduces it back (see photo.upsample)
 
 
 def _perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degradation) -> CameraProfile:
@@ -161,12 +162,12 @@ class _CubeJob:
     families: tuple[str, ...] | None = None
 
 
-def _write_and_load(image: NDArray[np.float64], fmt: str, quality: int, tmpdir: str, exif: bytes
+def _write_and_load(image: NDArray[np.float64], fmt: str, quality: int, tmpdir: str, exif: bytes, max_side: int
                     ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     ext = {"png16": "png"}.get(fmt, fmt)
     path = Path(tmpdir) / f"sample.{ext}"
     photo.write_photo(path, image, fmt, exif, quality)
-    loaded = load_photo(path, max_side=4096)
+    loaded = load_photo(path, max_side=max_side)
     return np.asarray(loaded.rgb, dtype=np.float64), np.asarray(loaded.saturated)
 
 
@@ -220,13 +221,15 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             exposure = math.exp(rng.uniform(math.log(deg.exposure[0]), math.log(deg.exposure[1])))
             noise = rng.uniform(*deg.noise)
             image, _ = photo.expose(photo.linear_photo(cube, spd, true_cam), exposure, meter)
+            image = photo.upsample(image, deg.upsample)
             if rng.random() < deg.ambient_probability:
                 image = image + rng.uniform(*deg.ambient) * rng.uniform(0.6, 1.0, size=3)
             image = np.minimum(photo.add_noise(image, noise, rng), 1.0)
             k = int(rng.choice(len(fmt_names), p=fmt_p))
             quality = int(rng.integers(deg.jpeg_quality[0], deg.jpeg_quality[1] + 1))
-            exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
-            rgb, saturated = _write_and_load(image, fmt_names[k], quality, tmp, exif)
+            exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * deg.upsample,
+                                  camera.name)
+            rgb, saturated = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
             variant = variants[int(rng.integers(len(variants)))]
             prof = extract_profile(rgb, saturated, variant.scene, variant.pixels)
             use_generic = rng.random() < deg.generic_probability

@@ -48,6 +48,7 @@ from .dataset import CubeSpec, Degradation, camera_split
 from .lamps import Lamp, all_lamps
 
 PAPER = {"mae": 0.0677, "r": 0.864}
+UPSAMPLE = 2
 GOALS = {"mae_400_700": 0.015, "mae_380_780": 0.03, "r": 0.98, "duv": 0.001}
 METRICS = ("mae_400_700", "mae_380_780", "pearson_r", "delta_uv_prime", "abs_delta_cct_k")
 
@@ -92,11 +93,13 @@ class _Photos:
         return self.cubes[spec]
 
     def write(self, cond: Condition, spd: np.ndarray, seed: int, tag: str = "p") -> Path:
+        """The photo a camera with twice the cube's pixel count takes (noise per camera pixel)."""
         cube, scene, meter = self.cube(cond.spec)
         rng = np.random.default_rng(seed)
-        image, _ = photo.synthesize(cube, spd, _camera(cond), cond.exposure, cond.noise, rng, meter)
+        image, _ = photo.expose(photo.linear_photo(cube, spd, _camera(cond)), cond.exposure, meter)
+        image = np.minimum(photo.add_noise(photo.upsample(image, UPSAMPLE), cond.noise, rng), 1.0)
         cam = scene.preset.camera
-        exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], cond.camera)
+        exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * UPSAMPLE, cond.camera)
         ext = {"png16": "png"}.get(cond.fmt, cond.fmt)
         path = self.tmp / f"{tag}.{ext}"
         photo.write_photo(path, image, cond.fmt, exif)

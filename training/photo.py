@@ -30,7 +30,7 @@ AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
 
-__all__ = ["FORMATS", "linear_photo", "track_mask", "expose", "add_noise", "synthesize", "write_photo", "exif_for"]
+__all__ = ["FORMATS", "linear_photo", "track_mask", "expose", "upsample", "add_noise", "synthesize", "write_photo", "exif_for"]
 
 
 def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: CameraProfile) -> NDArray[np.float64]:
@@ -58,6 +58,18 @@ def expose(image: NDArray[np.float64], exposure: float = 1.0,
     peak = float(np.max(metered))
     gain = AUTO_EXPOSURE_LEVEL * float(exposure) / peak if peak > 0 else 0.0
     return image * gain, gain
+
+
+def upsample(image: NDArray[np.float64], factor: int) -> NDArray[np.float64]:
+    """Bilinear upsampling in linear light: a basis cube's resolution turned into a camera's
+    pixel count, so noise, encoding and the loader's draft/box reduction act at the scale they
+    do on a real photo (a 24 MP JPEG is read at a quarter of its size or less)."""
+    if factor <= 1:
+        return image
+    height, width, _ = image.shape
+    size = (width * factor, height * factor)
+    return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(image[..., c], dtype=np.float32), "F")
+                                .resize(size, Image.BILINEAR), dtype=np.float64) for c in range(3)], axis=-1)
 
 
 def add_noise(image: NDArray[np.float64], noise: float, rng: np.random.Generator) -> NDArray[np.float64]:

@@ -175,7 +175,7 @@ def write_json(path: Path, payload: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--set", default="full", choices=sorted(CUBE_SETS))
-    parser.add_argument("--n-per-cube", type=int, default=2500)
+    parser.add_argument("--n-per-cube", type=int, default=2000)
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import CDSpectraError
+
 from .spectral_grid import WAVELENGTHS_NM, resample_to_grid
 
 CAMERA_FILE = Path(__file__).resolve().parent.parent / "cameras" / "cameras.json"
@@ -31,7 +33,7 @@ class CameraProfile:
     def __post_init__(self) -> None:
         s = self.sensitivities
         if s.shape != (WAVELENGTHS_NM.size, 3) or not np.all(np.isfinite(s)) or s.max() <= 0:
-            raise ValueError(f"camera {self.name!r}: need finite, non-zero (81, 3) sensitivities")
+            raise CDSpectraError(f"camera {self.name!r}: need finite, non-zero (81, 3) sensitivities")
 
 
 @lru_cache(maxsize=1)
@@ -58,7 +60,7 @@ def load_camera(name_or_path: str | Path) -> CameraProfile:
         return _normalised(key, shipped[key])
     path = Path(key)
     if path.suffix.lower() != ".json" or not path.is_file():
-        raise ValueError(f"unknown camera {key!r}: give one of {len(shipped)} shipped names "
+        raise CDSpectraError(f"unknown camera {key!r}: give one of {len(shipped)} shipped names "
                          f"(e.g. {DEFAULT_CAMERA}) or a rawtoaces-format JSON file")
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -68,5 +70,5 @@ def load_camera(name_or_path: str | Path) -> CameraProfile:
         if rgb.ndim != 2 or rgb.shape[1] != 3:
             raise ValueError("each wavelength needs three values (R, G, B)")
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"camera file {path} is not a rawtoaces-format sensitivity file: {exc}") from exc
+        raise CDSpectraError(f"camera file {path} is not a rawtoaces-format sensitivity file: {exc}") from exc
     return _normalised(path.stem, resample_to_grid(wl, rgb.T).T)

@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .errors import CDSpectraError
+
 PRESET_DIR = Path(__file__).resolve().parent.parent / "presets"
 
 __all__ = [
@@ -242,11 +244,11 @@ def load_preset(name_or_path: str | Path) -> Preset:
     if not path.suffix:
         path = PRESET_DIR / f"{name_or_path}.json"
     if not path.is_file():
-        raise ValueError(
+        raise CDSpectraError(
             f"unknown capture preset {str(name_or_path)!r}; known: {', '.join(preset_names())}"
         )
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         return _from_dict(data)
     except (json.JSONDecodeError, TypeError, KeyError) as exc:
-        raise ValueError(f"preset file {path} is not a valid preset: {exc}") from exc
+        raise CDSpectraError(f"preset file {path} is not a valid preset: {exc}") from exc

@@ -37,7 +37,7 @@ from .spectral_grid import WAVELENGTHS_NM
 
 MAX_SIDE = 1024
 GENERIC = "generic"
-MIN_VALID_400_700 = 0.5  # share of 400–700 nm λ₁ bins that must be usable
+MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
 Progress = Callable[[float, str], None]
 
 __all__ = ["MAX_SIDE", "GENERIC", "focal_px_for", "estimate_image", "estimate_photo", "camera_for"]
@@ -182,7 +182,7 @@ def estimate_image(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
     profile = _calibrated(analysis.profile, cal)
-    if int(np.sum(profile.valid)) < 10 or analysis.fit.residual > 0.6:
+    if int(np.sum(profile.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
         raise NoDiscError(f"no CD rainbow found in {Path(image.path).name or 'the photo'}: photograph the disc "
                           "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
     report(0.6, "Solving for the spectrum")

@@ -37,6 +37,13 @@ class GeometryFit:
     residual: float  # share of the photo's energy the geometry cannot explain (0 = perfect)
     symmetry_center_px: tuple[float, float]
     evaluations: int
+    null_residual: float = 1.0  # the same with λ₁ dealt out at random: what no rainbow explains
+
+    @property
+    def rainbow_contrast(self) -> float:
+        """How much better the fitted disc explains the photo than a disc in the wrong place:
+        near 1 for a CD rainbow, near 0 for a photo without one."""
+        return 0.0 if self.null_residual <= 0 else max(0.0, 1.0 - self.residual / self.null_residual)
 
     def scene(self, preset: Preset, image_size: tuple[int, int]) -> Scene:
         return scene_for(preset, image_size, self.focal_px, self.center_px, self.ring_center_px,
@@ -124,11 +131,20 @@ def scene_for(
     return Scene(replace(preset, camera=cam, light=light), pose)
 
 
-def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = None) -> float:
+def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = None,
+                scramble: bool = False) -> float:
     """Share of the photo's energy on the disc that I = A(λ₁)·visibility cannot explain,
-    with A fitted per λ₁ bin and channel by least squares."""
+    with A fitted per λ₁ bin and channel by least squares.
+
+    ``scramble`` deals the pixels' (λ₁, visibility) pairs out at random (seeded): the same
+    coverage and bin sizes, but no rainbow geometry — the baseline a real rainbow must beat.
+    """
     h, w, _ = rgb.shape
     px = pixel_diffraction(scene)
+    if scramble:
+        order = np.random.default_rng(0).permutation(px.index.size)
+        px = replace(px, lambda1_nm=px.lambda1_nm[order], visibility=px.visibility[order],
+                     on_tracks=px.on_tracks[order])
     lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
     b = np.floor((px.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
     inside = px.on_tracks & (b >= 0) & (b < N_FEATURES)
@@ -244,6 +260,9 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     def to_full(rc: tuple[float, float]) -> tuple[float, float]:
         return ((rc[0] + 0.5) / scale - 0.5, (rc[1] + 0.5) / scale - 0.5)
 
+    # The fitted disc with its pixels' diffraction coordinates dealt out at random.
+    null_scene = scene_for(preset, (sw, sh), f_small, (x[0], x[1]), (x[2], x[3]), sigma0 * math.exp(x[4]), dist)
+    null = consistency(small, null_scene, total, scramble=True)
     return GeometryFit(
         center_px=to_full((x[0], x[1])),
         ring_center_px=to_full((x[2], x[3])),
@@ -252,5 +271,6 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         distance_mm=dist,
         residual=value,
         symmetry_center_px=to_full(sym),
-        evaluations=evals,
+        evaluations=evals + 1,
+        null_residual=null,
     )

@@ -17,9 +17,9 @@ from .nnls import nnls_normal
 from .spectral_grid import WAVELENGTHS_NM
 from .profile import Profile
 
-SMOOTHNESS = 3e-3  # relative to the data term's mean curvature; chosen on synthetic prior spectra
+SMOOTHNESS = 3e-2  # relative to the data term's mean curvature (bench/solver_tuning.md, synthetic spectra)
 MODEL_ERROR_FLOOR = 0.01  # features are trusted to 1 % of their peak at best
-PRIOR_STRENGTH = 0.1  # weight of the Gaussian prior (1 = fully Bayesian); tuned on synthetic spectra
+PRIOR_STRENGTH = 0.3  # weight of the Gaussian prior (1 = fully Bayesian); bench/solver_tuning.md
 PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
 SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
 

@@ -1,0 +1,141 @@
+"""The whole inverse on rendered photos: accuracy, invariances, calibration, and model failures."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from cd_spectra_addon.core import estimate as est_mod
+from cd_spectra_addon.core.calibration import (
+    Calibration, fit_gains, known_lamp_spd, list_calibrations, load_calibration, new_metadata, save_calibration,
+)
+from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
+from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
+from cd_spectra_addon.core.estimate import estimate_photo
+from cd_spectra_addon.core.model import MODEL_DIR, load_model
+from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from training import photo
+from training.render_numpy import render_cube
+
+SHIPPED = MODEL_DIR / "cd_spectra.onnx"
+needs_model = pytest.mark.skipif(not SHIPPED.is_file(), reason="no shipped model (run make model)")
+
+
+@pytest.fixture(scope="module")
+def capture():
+    scene = Scene(load_preset("cd-default").with_image_size(256))
+    return scene, render_cube(scene, supersample=3), photo.track_mask(scene)
+
+
+def _write(tmp_path, capture, spd, name="p", fmt="jpg", exposure=1.0, noise=0.01, camera=None, seed=0):
+    scene, cube, meter = capture
+    cam = camera or load_camera(DEFAULT_CAMERA)
+    img, _ = photo.expose(photo.linear_photo(cube, spd, cam), exposure, meter)
+    img = np.minimum(photo.add_noise(img, noise, np.random.default_rng(seed)), 1.0)
+    c = scene.preset.camera
+    path = tmp_path / f"{name}.{ 'png' if fmt == 'png16' else fmt}"
+    photo.write_photo(path, img, fmt, photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0],
+                                                     DEFAULT_CAMERA))
+    return path
+
+
+def _warm_led():
+    lam = WAVELENGTHS_NM
+    return peak_normalise(0.35 * np.exp(-0.5 * ((lam - 452) / 9) ** 2) + np.exp(-0.5 * ((lam - 590) / 55) ** 2))
+
+
+@needs_model
+@pytest.mark.parametrize("spd", [known_lamp_spd("incandescent"), _warm_led()], ids=["incandescent", "led"])
+def test_estimate_recovers_known_spectra(tmp_path, capture, spd):
+    result = estimate_photo(_write(tmp_path, capture, spd))
+    metrics = compare_spds(result.spd, spd)
+    assert metrics["mae_400_700"] < 0.05 and metrics["delta_uv_prime"] < 0.005
+    assert result.spd.shape == (81,) and result.spd.max() == 1.0 and result.spd.min() >= 0
+    assert np.all(np.isfinite(result.spd)) and np.all(np.isfinite(result.spd_std))
+    assert 0.0 <= result.confidence <= 1.0 and isinstance(result.warnings, list)
+    assert np.allclose(result.disc.center_px, (127.5, 127.5), atol=1.0)
+    data = result.to_json()
+    json.dumps(data)  # serialisable
+    assert data["wavelength_nm"] == list(range(380, 781, 5))
+
+
+@needs_model
+def test_exposure_does_not_change_the_spd(tmp_path, capture):
+    """Unsaturated exposure ×k only scales the photo: the normalised SPD moves < 1 %."""
+    spd = _warm_led()
+    a = estimate_photo(_write(tmp_path, capture, spd, "a", fmt="exr", exposure=0.4, noise=0.0))
+    b = estimate_photo(_write(tmp_path, capture, spd, "b", fmt="exr", exposure=0.9, noise=0.0))
+    assert np.max(np.abs(a.spd - b.spd)) < 0.01
+
+
+def test_physics_only_without_a_model(tmp_path, capture):
+    spd = known_lamp_spd("incandescent")
+    result = estimate_photo(_write(tmp_path, capture, spd, fmt="exr"), model=None)
+    assert compare_spds(result.spd, spd)["mae_400_700"] < 0.05
+    assert result.spd.max() == 1.0
+
+
+def test_noise_photo_is_no_disc(tmp_path):
+    rng = np.random.default_rng(0)
+    path = tmp_path / "noise.png"
+    photo.write_photo(path, rng.random((256, 256, 3)) * 0.5, "png")
+    with pytest.raises((NoDiscError, CDSpectraError)):
+        estimate_photo(path, model=None)
+
+
+@needs_model
+@pytest.mark.parametrize("damage", ["bytes", "layout", "missing-meta"])
+def test_corrupt_or_mismatched_model_is_refused(tmp_path, capture, damage):
+    onnx = tmp_path / "cd_spectra.onnx"
+    shutil.copy(SHIPPED, onnx)
+    shutil.copy(SHIPPED.with_suffix(".json"), onnx.with_suffix(".json"))
+    if damage == "bytes":
+        onnx.write_bytes(b"not an onnx model" * 100)
+    elif damage == "layout":
+        meta = json.loads(onnx.with_suffix(".json").read_text())
+        meta["layout_hash"] = "0000"
+        onnx.with_suffix(".json").write_text(json.dumps(meta))
+    else:
+        onnx.with_suffix(".json").unlink()
+    with pytest.raises(ModelError) as info:
+        load_model(onnx)
+    assert "model" in str(info.value)
+
+
+def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, capture):
+    """A unit whose channel gains are 6 % off its profile: one shot of an incandescent bulb fixes it."""
+    scene, _, _ = capture
+    base = load_camera(DEFAULT_CAMERA)
+    off = CameraProfile("unit", base.sensitivities * np.array([1.06, 0.95, 1.05]))
+    ref = known_lamp_spd("incandescent")
+    cal_photo = _write(tmp_path, capture, ref, "cal", fmt="exr", noise=0.0, camera=off)
+    from cd_spectra_addon.core.analysis import analyse
+    from cd_spectra_addon.core.forward import feature_matrix
+    from cd_spectra_addon.core.images import load_photo
+
+    image = load_photo(cal_photo)
+    preset = load_preset("cd-default")
+    focal, _ = est_mod.focal_px_for(image, preset)
+    analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
+    predicted = np.einsum("bcl,l->bc", feature_matrix(analysis.response, base), ref)
+    cal = Calibration("unit-test", fit_gains(analysis.profile.values, analysis.profile.valid, predicted),
+                      "cd-default", DEFAULT_CAMERA, new_metadata(str(cal_photo), "incandescent"))
+    saved = save_calibration(cal, tmp_path / "cal")
+    assert list_calibrations(tmp_path / "cal") == ["unit-test"]
+    loaded = load_calibration(saved)
+    target = _warm_led()
+    test_photo = _write(tmp_path, capture, target, "t", fmt="exr", noise=0.0, camera=off)
+    plain = estimate_photo(test_photo, model=None)
+    fixed = estimate_photo(test_photo, model=None, calibration=loaded)
+    assert compare_spds(fixed.spd, target)["delta_uv_prime"] < 0.6 * compare_spds(plain.spd, target)["delta_uv_prime"]
+
+
+def test_unknown_calibration_and_camera_are_specific_errors(tmp_path, capture):
+    path = _write(tmp_path, capture, known_lamp_spd("incandescent"))
+    with pytest.raises(CDSpectraError, match="calibration"):
+        estimate_photo(path, model=None, calibration=str(tmp_path / "missing.json"))
+    with pytest.raises(CDSpectraError, match="unknown camera"):
+        estimate_photo(path, model=None, camera="Leica_M11")

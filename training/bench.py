@@ -1,0 +1,203 @@
+"""Error against run time, and the product's speed figures (``make bench`` → bench/bench.md).
+
+    python -m training.bench [--out bench/bench.md] [--quick]
+
+Operating points, all through ``estimate_image`` on the same photos (JPEG q90, 1 % noise, a
+768 × 768 capture): physics only, physics + Gaussian prior, the shipped model, a larger model
+(trained here on the same cached dataset if missing), and the shipped model at other loading
+resolutions. Then the speed figures the product promises: a 24-megapixel JPEG from file to SPD
+against a bare decode of the same file, one model inference, and enabling the add-on.
+All timings come from one run on this machine; compare them as ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image
+
+from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.estimate import estimate_image, estimate_photo
+from cd_spectra_addon.core.images import load_photo
+from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
+
+from . import photo
+from .basis import REPO, basis_cube
+from .lamps import lspdd_lamps
+
+LARGE_DIR = REPO / "data" / "models" / "large"
+
+
+def _large_model(quick: bool) -> Path | None:
+    path = LARGE_DIR / f"{MODEL_NAME}.onnx"
+    if path.is_file() or quick:
+        return path if path.is_file() else None
+    meta = json.loads((MODEL_DIR / f"{MODEL_NAME}.json").read_text())
+    t = meta["training"]
+    cmd = [sys.executable, "-m", "training.train", "--set", t["cube_set"], "--n-per-cube", str(t["n_per_cube"]),
+           "--epochs", str(t["epochs"]), "--seed", str(t["seed"]), "--engine", t["engine"],
+           "--hidden", "1024", "1024", "512", "--out", str(LARGE_DIR)]
+    subprocess.run(cmd, check=True, cwd=REPO)
+    return path
+
+
+def _points(quick: bool) -> list[dict[str, Any]]:
+    pts = [{"name": "physics only", "method": "physics", "model": None, "max_side": 1024},
+           {"name": "physics + prior", "method": "prior", "model": None, "max_side": 1024},
+           {"name": "model (shipped)", "method": "model", "model": None, "max_side": 1024, "shipped": True},
+           {"name": "model, photo loaded at 512 px", "method": "model", "model": None, "max_side": 512},
+           {"name": "model, photo loaded at 256 px", "method": "model", "model": None, "max_side": 256}]
+    large = _large_model(quick)
+    if large is not None:
+        pts.append({"name": "larger model (1024-1024-512)", "method": "model", "model": large, "max_side": 1024})
+    return pts
+
+
+def error_vs_time(quick: bool) -> list[dict[str, Any]]:
+    size = 256 if quick else 768
+    scene = Scene(load_preset("cd-default").with_image_size(size))
+    cube, _ = basis_cube(scene, "numpy", log=print)
+    meter = photo.track_mask(scene)
+    lamps = lspdd_lamps()[:: 40 if quick else 5]
+    cam = load_camera(DEFAULT_CAMERA)
+    exif = photo.exif_for(58.0, 36.0, size, DEFAULT_CAMERA)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = []
+        for i, lamp in enumerate(lamps):
+            img, _ = photo.synthesize(cube, lamp.spd, cam, 1.0, 0.01, np.random.default_rng(i), meter)
+            path = Path(tmp) / f"{i}.jpg"
+            photo.write_photo(path, img, "jpg", exif)
+            paths.append(path)
+        for point in _points(quick):
+            model = load_model(point["model"]) if point["model"] else load_model()
+            errs, errs_all, duv, times = [], [], [], []
+            estimate_photo(paths[0], model=model, method=point["method"])  # warm caches
+            for path, lamp in zip(paths, lamps):
+                t0 = time.perf_counter()
+                image = load_photo(path, max_side=point["max_side"])
+                est = estimate_image(image, model=model, method=point["method"])
+                times.append(time.perf_counter() - t0)
+                m = compare_spds(est.spd, lamp.spd)
+                errs.append(m["mae_400_700"])
+                errs_all.append(m["mae_380_780"])
+                duv.append(m["delta_uv_prime"])
+            rows.append({"name": point["name"], "ms": 1e3 * float(np.median(times)),
+                         "mae_400_700": float(np.mean(errs)), "mae_380_780": float(np.mean(errs_all)),
+                         "delta_uv_prime": float(np.mean(duv)), "shipped": point.get("shipped", False)})
+            print(rows[-1], flush=True)
+    for r in rows:
+        r["pareto"] = not any(o["ms"] <= r["ms"] and o["mae_400_700"] <= r["mae_400_700"] and
+                              (o["ms"] < r["ms"] or o["mae_400_700"] < r["mae_400_700"]) for o in rows)
+    return rows
+
+
+def speed(quick: bool) -> dict[str, Any]:
+    """24 MP JPEG to SPD vs a bare decode; one inference; enabling the add-on."""
+    out: dict[str, Any] = {}
+    w, h = (1536, 1024) if quick else (6000, 4000)
+    scene = Scene(load_preset("cd-default").with_image_size(768, 512))
+    cube, _ = basis_cube(scene, "numpy", log=print)
+    lamp = lspdd_lamps()[3]
+    img, _ = photo.synthesize(cube, lamp.spd, load_camera(DEFAULT_CAMERA), 1.0, 0.01, np.random.default_rng(0),
+                              photo.track_mask(scene))
+    big = np.asarray(Image.fromarray(np.rint(photo.srgb_encode(img) * 255).astype(np.uint8)).resize((w, h),
+                                                                                                    Image.BICUBIC))
+    focal = 58.0
+    exif = photo.exif_for(focal, 36.0, w, DEFAULT_CAMERA)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "big.jpg"
+        Image.fromarray(big).save(path, quality=90, exif=exif)
+        decode, estimate = [], []
+        model = load_model()
+        estimate_photo(path, model=model)
+        for _ in range(3 if quick else 7):
+            t0 = time.perf_counter()
+            with Image.open(path) as im:
+                im.load()
+            decode.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            est = estimate_photo(path, model=model)
+            estimate.append(time.perf_counter() - t0)
+        m = compare_spds(est.spd, lamp.spd)
+        out["photo"] = {"megapixels": w * h / 1e6, "file_mb": path.stat().st_size / 1e6,
+                        "bare_decode_ms": 1e3 * float(np.median(decode)),
+                        "photo_to_spd_ms": 1e3 * float(np.median(estimate)),
+                        "ratio": float(np.median(estimate) / np.median(decode)),
+                        "stages_ms": est.timing_ms, "mae_400_700": m["mae_400_700"]}
+    x = np.random.default_rng(0).random(INPUT_SIZE).astype(np.float32)
+    model.predict(x)
+    t0 = time.perf_counter()
+    n = 200
+    for _ in range(n):
+        model.predict(x)
+    out["inference_ms"] = 1e3 * (time.perf_counter() - t0) / n
+    out["enable_ms"] = _enable_ms()
+    return out
+
+
+def _enable_ms() -> float | None:
+    """Import + register of the add-on in a fresh headless Blender, in milliseconds."""
+    code = ("import time, bpy, sys\nsys.path.insert(0, %r)\nt=time.perf_counter()\nimport cd_spectra_addon as a\n"
+            "a.register()\nprint('ENABLE_MS', 1e3*(time.perf_counter()-t))\na.unregister()\n") % str(REPO)
+    try:
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    for line in res.stdout.splitlines():
+        if line.startswith("ENABLE_MS"):
+            return float(line.split()[1])
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=REPO / "bench" / "bench.md")
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    result = {"machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
+              "error_vs_time": error_vs_time(args.quick), "speed": speed(args.quick)}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+    sp = result["speed"]
+    lines = ["# Error against run time, and speed (`make bench`)", "",
+             f"Machine: {result['machine']['cpus']} CPUs, {result['machine']['platform']}. One run; compare as ratios.", "",
+             "## Operating points", "",
+             "Same JPEG photos (q90, 1 % noise, 768 × 768 capture, default camera) of every 5th LSPDD lamp; "
+             "median ms per photo from file to SPD (load included).", "",
+             "| operating point | ms / photo | MAE 400–700 | MAE 380–780 | Δu'v' | Pareto front |", "|---|---|---|---|---|---|"]
+    for r in result["error_vs_time"]:
+        name = f"**{r['name']}**" if r["shipped"] else r["name"]
+        lines.append(f"| {name} | {r['ms']:.0f} | {r['mae_400_700']:.4f} | {r['mae_380_780']:.4f} | "
+                     f"{r['delta_uv_prime']:.4f} | {'yes' if r['pareto'] else ''} |")
+    ph = sp["photo"]
+    enable = sp["enable_ms"]
+    lines += ["", "## Speed", "",
+              f"- {ph['megapixels']:.0f}-megapixel JPEG ({ph['file_mb']:.1f} MB): photo → SPD "
+              f"{ph['photo_to_spd_ms']:.0f} ms; bare full decode of the same file {ph['bare_decode_ms']:.0f} ms "
+              f"(ratio {ph['ratio']:.2f}; goals ≤ 500 ms and ≤ 2×). Stages: "
+              + ", ".join(f"{k} {v:.0f} ms" for k, v in ph["stages_ms"].items()) + ".",
+              f"- Model inference: {sp['inference_ms']:.2f} ms per photo (goal ≤ 2 ms).",
+              "- Enabling the add-on (import + register in headless Blender): "
+              + (f"{enable:.1f} ms (goal ≤ 50 ms)." if enable is not None else "not measured (bpy unavailable)."),
+              ""]
+    text = "\n".join(lines)
+    args.out.write_text(text, encoding="utf-8")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,125 @@
+"""Write models/MODEL_CARD.md from the model's metadata and the latest evaluation (bench/eval.json).
+
+    python -m training.model_card
+
+Sections follow the Hugging Face model card template (details, uses, limitations, training,
+evaluation, technical specifications). Numbers are copied from the files, never typed in.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
+
+from .basis import REPO
+
+EVAL = REPO / "bench" / "eval.json"
+
+
+def _f(v: Any, digits: int = 4) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
+    t = meta["training"]
+    lines = [
+        f"# Model card: {MODEL_NAME} `{meta['version']}`",
+        "",
+        "## Model details",
+        "",
+        "- **What:** maps the spectral profile of a photo of a CD (camera RGB binned by the first-order diffraction",
+        "  wavelength λ₁, plus validity/noise/saturation per bin, the camera's sensitivities, the physics-only",
+        "  solution and the fitted lamp size) to the lamp's spectral power distribution on 380–780 nm in 5 nm steps,",
+        "  peak-normalised, with a per-wavelength standard deviation.",
+        f"- **Architecture:** MLP {' → '.join(str(h) for h in t['hidden'])} (GELU), softplus output with a skip path from",
+        "  the physics solution, peak normalisation inside the graph; Laplace likelihood head for the uncertainty.",
+        "- **Format:** ONNX opset 17 (`cd_spectra.onnx`), metadata in `metadata_props` and the JSON sidecar",
+        f"  (`cd_spectra.json`: wavelength grid, feature grid, input layout hash `{meta['layout_hash']}`, preprocessing",
+        "  parameters, presets, cameras, Gaussian prior, data hash, metrics).",
+        f"- **onnxruntime vs torch:** max |Δ| {meta.get('onnx_parity_max_abs_diff', float('nan')):.1e} (must be ≤ 1e-5).",
+        "",
+        "## Uses",
+        "",
+        "Estimating a lamp's SPD from one photo of an unwritten CD, lit by the lamp with camera and lamp on the disc's",
+        "axis (see README's capture guide), for lighting artists (a matched light in Blender) and inverse-rendering",
+        "work (a measured SPD for a spectral renderer). Not a replacement for a calibrated spectroradiometer where",
+        "absolute radiometry or UV/IR content matters.",
+        "",
+        "## Bias, risks and limitations",
+        "",
+        "- Consumer cameras see little outside ~400–690 nm: the tails (380–400, 700–780 nm) come mostly from the prior",
+        "  learnt from synthetic spectra; they are reported separately and should not be trusted like the middle.",
+        "- Trained only on synthetic spectra (physics-based lamp families) rendered through a physical CD model; a",
+        "  real disc's groove depth and a real camera's curves differ from the model: the calibration shot corrects it.",
+        "- Camera JPEGs apply white balance and a colour matrix the model does not know; raw/linear files are better.",
+        "- Lamp size sets the spectral resolution: a bulb close to the disc blurs narrow lines (see README).",
+        "",
+        "## Training details",
+        "",
+        f"- **Data:** {t['train_samples'] + t['val_samples']} synthetic photos ({t['n_per_cube']} per capture geometry ×"
+        f" {len(t['cubes'])} geometries: {', '.join(t['cubes'])}), basis cubes rendered by Cycles ({t['engine']});",
+        "  SPDs from `training/spd_prior.py` (17 physical lamp families, no measured spectra), random training",
+        "  cameras with ±2 % gain and ±1 nm shift errors, exposure 0.3–2× (clipping), 0.2–3 % noise, ambient",
+        "  light, EXR / 16-bit PNG / 8-bit PNG / JPEG q75–98, read back through the product's loader; profiles taken",
+        "  at geometries the pose fit produced. Data hash `" + meta["data_hash"] + "`.",
+        f"- **Cameras:** {len(meta['cameras']['train'])} for training; held out (never trained on): "
+        + ", ".join(meta["cameras"]["held_out"]) + ".",
+        f"- **Procedure:** AdamW, one-cycle LR, {t['epochs']} epochs, seed {t['seed']}; 10 % synthetic validation"
+        f" (MAE {_f(t['val_mae'])}). Training took {t['seconds'] / 60:.1f} min; `make model` from nothing "
+        f"{(t.get('total_seconds') or 0) / 60:.1f} min on this machine (cubes already cached excluded).",
+        "- **Never used for training, tuning or selection:** the LSPDD lamps and colour-science's measured sources and",
+        "  CIE illuminants.",
+        "",
+        "## Evaluation",
+        "",
+    ]
+    if ev is None:
+        lines += ["Not evaluated yet: run `make eval`.", ""]
+    else:
+        real = ev["real_lamps"]
+        pp = ev["paper_protocol"]
+        lines += [
+            f"From `bench/eval.md` (model `{ev['model_version']}`):",
+            "",
+            "| test | MAE 400–700 | MAE 380–780 | r | Δu'v' |",
+            "|---|---|---|---|---|",
+        ]
+        for method, label in (("model", "real lamps, JPEG 1 % noise (model)"), ("prior", "… physics + prior"),
+                              ("physics", "… physics only")):
+            s = real[method]["all"]
+            lines.append(f"| {label} | {_f(s['mae_400_700'])} | {_f(s['mae_380_780'])} | {_f(s['pearson_r'], 3)} | "
+                         f"{_f(s['delta_uv_prime'])} |")
+        lines += ["", f"Paper's protocol (MAE / RMSE / r over 380–780 nm): paper {pp['paper']['mae']} / – / "
+                  f"{pp['paper']['r']}; ours {_f(pp['protocol_model']['mae'])} / {_f(pp['protocol_model']['rmse'])} / "
+                  f"{_f(pp['protocol_model']['r'], 3)} (trained on {pp['n_train']}), shipped model "
+                  f"{_f(pp['shipped_model']['mae'])} / {_f(pp['shipped_model']['rmse'])} / {_f(pp['shipped_model']['r'], 3)}.",
+                  "", "Robustness, per-family and per-camera tables: `bench/eval.md`.", ""]
+    lines += [
+        "## Technical specifications",
+        "",
+        f"- Input: float32 [batch, {sum(n for _, n in meta['input_layout'])}] (`inputs`); outputs `spd` [batch, 81]"
+        " (peak exactly 1) and `log_std` [batch, 81].",
+        "- Runtime: onnxruntime, CPU execution provider, one thread; session created lazily on first use.",
+        "- Rebuild: `make model` (seeded; renders missing basis cubes, builds the dataset, trains, exports).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def main() -> int:
+    meta = json.loads((MODEL_DIR / f"{MODEL_NAME}.json").read_text(encoding="utf-8"))
+    ev = json.loads(EVAL.read_text(encoding="utf-8")) if EVAL.is_file() else None
+    if ev is not None and ev.get("model_version") != meta["version"]:
+        ev = None  # the evaluation is of another model
+    out = MODEL_DIR / "MODEL_CARD.md"
+    out.write_text(render(meta, ev), encoding="utf-8")
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
