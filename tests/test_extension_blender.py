@@ -72,6 +72,9 @@ def test_zip_holds_the_addon_and_nothing_else(installed_addon: Installed) -> Non
                         r"^(Makefile|pyproject\.toml|requirements\.txt|\.gitignore)$|__pycache__|\.pyc$")
     assert not [n for n in names if banned.search(n)]
     assert not [n for n in names if n.startswith("wheels/numpy")]
+    root = Path(__file__).resolve().parents[1]
+    shipped_models = {f"models/{p.name}" for p in (root / "models").glob("*") if p.is_file()}
+    assert shipped_models <= names  # the model and its JSON sidecar travel with the add-on
 
 
 def test_installed_in_a_user_repository(installed_addon: Installed) -> None:
