@@ -1,7 +1,9 @@
 """Fixtures for tests of the installed extension in headless Blender (the bpy wheel).
 
 The add-on is tested the way users get it: the zip is built with Blender's own tool (without
-wheels: onnxruntime, Pillow and OpenEXR come from the venv here), validated, and installed with
+wheels: onnxruntime, Pillow and OpenEXR come from the venv here; Blender would install a zip's
+wheels into the user's shared ``extensions/.local`` site-packages, outside the temporary
+repository, and the venv's copies would shadow them anyway), validated, and installed with
 ``bpy.ops.extensions.package_install_files`` into a temporary user repository, so it runs as
 ``bl_ext.<repo>.cd_spectra`` with relative imports, exactly as in Blender. Each test starts
 from a fresh startup file (MolecularNodes' tests/conftest.py does the same).
