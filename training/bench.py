@@ -150,8 +150,9 @@ def speed(quick: bool) -> dict[str, Any]:
 
 def _enable_ms() -> float | None:
     """Import + register of the add-on in a fresh headless Blender, in milliseconds."""
-    code = ("import time, bpy, sys\nsys.path.insert(0, %r)\nt=time.perf_counter()\nimport cd_spectra_addon as a\n"
-            "a.register()\nprint('ENABLE_MS', 1e3*(time.perf_counter()-t))\na.unregister()\n") % str(REPO)
+    code = ("import time, bpy, sys\nsys.path.insert(0, %r)\nt=time.perf_counter()\n"
+            "import cd_spectra_addon.blender as a\na.register()\nprint('ENABLE_MS', 1e3*(time.perf_counter()-t))\n"
+            "a.unregister()\n") % str(REPO)
     try:
         res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=REPO)
     except (OSError, subprocess.TimeoutExpired):

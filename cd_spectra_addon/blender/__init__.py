@@ -7,10 +7,11 @@ raises, so Blender shows the real error and no half-registered add-on stays behi
 
 from __future__ import annotations
 
-from . import image_decoder, operators, panels, properties
+from . import image_decoder, operators, panels, properties, user_paths
 
 # image_decoder: Blender's image loader as the core's fallback for photos Pillow cannot read.
-_MODULES = (properties, operators, panels, image_decoder)
+# user_paths: calibration profiles in the extension's user folder.
+_MODULES = (user_paths, properties, operators, panels, image_decoder)
 
 
 def register() -> None:

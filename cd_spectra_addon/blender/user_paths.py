@@ -1,0 +1,30 @@
+"""Where the add-on keeps the user's files (calibration profiles): Blender's per-extension user
+folder, which survives add-on updates and is what Blender's own tools clean up on removal."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+
+from ..core import calibration
+
+
+def _extension_package() -> str | None:
+    parts = (__package__ or "").split(".")
+    return ".".join(parts[:3]) if len(parts) >= 3 and parts[0] == "bl_ext" else None
+
+
+def register() -> None:
+    package = _extension_package()
+    if package is None:  # loaded as a plain module (tests, CLI): keep the core's default folder
+        return
+    try:
+        folder = bpy.utils.extension_path_user(package, path="calibrations", create=True)
+    except (ValueError, OSError):
+        return
+    calibration.set_default_directory(Path(folder))
+
+
+def unregister() -> None:
+    calibration.set_default_directory(None)
