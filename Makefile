@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo model eval bench bench-render tune-solver extension clean
+.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver extension clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -19,9 +19,18 @@ setup: $(STAMP)
 test: setup
 	$(PY) -m pytest -q
 
+# The bundled sample photo through the command-line estimator: result JSON, plot and .blend.
 demo: setup
-	$(PY) -m training.render_photo --spd samples/demo_lamps.csv --out out/demo --size 256 --noise 0.01 --format jpg
-	@echo "sample CD photos written to out/demo/"
+	@mkdir -p out/demo
+	$(PY) -m cd_spectra_addon estimate samples/cd_photo.jpg --json out/demo/result.json \
+		--plot out/demo/spd.png --blend out/demo/scene.blend
+	@echo "wrote out/demo/result.json, out/demo/spd.png, out/demo/scene.blend"
+
+# Re-make samples/cd_photo.jpg: CIE FL11 through the Cycles forward model (seeded).
+sample-photo: setup
+	$(PY) -m training.render_photo --spd samples/demo_lamps.csv --out out/sample --size 512 \
+		--noise 0.005 --format jpg --seed 1
+	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 
 # Rebuild models/ from nothing (Cycles basis cubes, dataset, training, ONNX export), seeded.
 model: setup

@@ -222,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     fusion = tune(load_model(onnx_path), args.set, 48 if args.set == "full" else 6, args.engine)
     metadata["fusion"] = {"strength": fusion["strength"], "floor": fusion["floor"],
                           "chosen_on": f"{fusion['n_photos']} synthetic photos (training.tune_fusion)"}
-    if args.set == "full":
+    if args.set == "full" and args.out.resolve() == (REPO / "models").resolve():
         (REPO / "bench" / "fusion_tuning.md").write_text(report(fusion), encoding="utf-8")
     metadata["training"]["total_seconds"] = time.perf_counter() - t0
     write_json(onnx_path.with_suffix(".json"), metadata)
