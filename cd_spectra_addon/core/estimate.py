@@ -38,6 +38,15 @@ from .spectral_grid import WAVELENGTHS_NM
 MAX_SIDE = 1024
 GENERIC = "generic"
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
+MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
+# The inverse assumes the camera looks straight at the disc's centre. Cropped/re-aimed photos
+# with the disc off the image centre (tests/test_hostile_inputs.py, bench/reliability.md):
+# ≤ 5 mm in the disc plane costs little; 8 mm already gave MAE 0.1–0.4 at full confidence.
+CENTRE_OFFSET_OK_MM = 5.0
+CENTRE_OFFSET_SPAN_MM = 5.0  # confidence falls linearly to its floor over this much more
+# An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
+# quantisation: at 0.4 % the physics-only MAE rose from 0.04 to 0.2 (bench/reliability.md).
+DIM_LEVEL_8BIT = 0.01
 Progress = Callable[[float, str], None]
 
 __all__ = ["MAX_SIDE", "GENERIC", "focal_px_for", "estimate_image", "estimate_photo", "camera_for"]
@@ -91,6 +100,16 @@ def _calibrated(profile: Profile, calibration: Calibration | None) -> Profile:
     return replace(profile, values=profile.values / gains, noise=profile.noise / gains)
 
 
+def _bin_share(profile: Profile, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Per λ₁ bin, the share of the profile's pixel weight (Σ visibility²) that ``mask`` flags."""
+    px = profile.pixels
+    flagged = np.asarray(mask).reshape(-1)[px.index]
+    vis2 = px.visibility ** 2
+    total = np.bincount(profile.pixel_bin, weights=vis2, minlength=profile.lambda_nm.size)
+    hit = np.bincount(profile.pixel_bin, weights=vis2 * flagged, minlength=profile.lambda_nm.size)
+    return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
+
+
 def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
                 image: LinearImage | None, generic: bool, focal_source: str) -> tuple[float, list[str], dict]:
     """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
@@ -99,7 +118,10 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     lam = profile.lambda_nm
     core = (lam >= 400) & (lam <= 700)
     coverage = float(np.mean(profile.valid[core]))
-    sat_core = float(np.mean(profile.saturated_fraction[core] > 0.05))
+    # The profile leaves out clipped and NaN/Inf pixels alike; only clipping is over-exposure.
+    clipped = profile.saturated_fraction if image is None or not np.any(image.invalid) else \
+        _bin_share(profile, image.saturated)
+    sat_core = float(np.mean(clipped[core] > 0.05))
     # Re-render the profile from the estimate and compare with the photo.
     valid = profile.valid
     pred = np.einsum("bcl,l->bc", matrix, spd)
@@ -119,6 +141,21 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — the disc may be cut off "
                         "by the frame, or the lamp and camera are too far off the disc's axis")
         score *= max(0.1, coverage)
+    if image is not None and np.any(image.invalid):
+        bad = float(np.mean(_bin_share(profile, image.invalid)[core]))
+        stats["invalid_share"] = bad
+        warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
+                        "check the raw conversion or the EXR export")
+        score *= max(0.2, 1.0 - 2.0 * bad)
+    fit = analysis.fit
+    width, height = analysis.scene.preset.camera.image_size_px
+    off_px = math.hypot(fit.center_px[0] - (height - 1) / 2.0, fit.center_px[1] - (width - 1) / 2.0)
+    off_mm = off_px * fit.distance_mm / fit.focal_px
+    stats["disc_offset_mm"] = off_mm
+    if off_mm > CENTRE_OFFSET_OK_MM:
+        warnings.append(f"the disc is not centred: its centre is {off_mm:.0f} mm off the middle of the photo — "
+                        "aim the camera straight down at the disc's centre, or crop the photo so the disc is in the middle")
+        score *= max(0.2, 1.0 - (off_mm - CENTRE_OFFSET_OK_MM) / CENTRE_OFFSET_SPAN_MM)
     if analysis.fit.residual > 0.15:
         warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "
                         "lamp are on the disc's axis and the preset matches the capture")
@@ -130,6 +167,10 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     noise = float(np.median(profile.noise[valid])) if np.any(valid) else 1.0
     snr = peak / max(noise, 1e-12)
     stats["snr"] = snr
+    if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
+        warnings.append(f"the rainbow is very dark (its brightest part is {100 * peak:.1f}% of full scale), so 8-bit "
+                        "rounding limits the accuracy — use a longer exposure or save 16-bit/raw")
+        score *= max(0.2, peak / DIM_LEVEL_8BIT)
     if snr < 30:
         warnings.append("low signal: the rainbow is dim or noisy — use a longer exposure or a brighter lamp")
         score *= max(0.2, snr / 30)
@@ -168,6 +209,11 @@ def estimate_image(
         raise CDSpectraError(f"unknown method {method!r}")
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
+    name = Path(image.path).name or "the photo"
+    clipped = float(np.mean(image.saturated))
+    if clipped > MAX_SATURATED_SHARE:
+        raise PhotoError(f"{name} is over-exposed: {100 * clipped:.0f}% of it is clipped at full scale — "
+                         "use a much shorter exposure (or dim the lamp)")
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
     cam, generic = camera_for(camera, mdl)
@@ -183,7 +229,12 @@ def estimate_image(
     analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
     profile = _calibrated(analysis.profile, cal)
     if int(np.sum(profile.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
-        raise NoDiscError(f"no CD rainbow found in {Path(image.path).name or 'the photo'}: photograph the disc "
+        hint = ""
+        if clipped > 0.2:
+            hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
+        elif image.encoding.endswith("-8") and float(np.max(rgb)) < DIM_LEVEL_8BIT:
+            hint = " (the photo is very dark: try a longer exposure)"
+        raise NoDiscError(f"no CD rainbow found in {name}{hint}: photograph the disc "
                           "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
@@ -201,14 +252,18 @@ def estimate_image(
         spd, std = mdl.predict(x)
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
-    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0)
-    if spd.max() <= 0:
+    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
+    unusable = not spd.max() > 0  # the network returned nothing usable (all zero, negative or NaN)
+    if unusable:
         spd = e_phys / e_phys.max()
     spd = spd / spd.max()
     std = np.nan_to_num(std, nan=0.25, posinf=1.0)
     t3 = time.perf_counter()
     report(0.9, "Colour")
     confidence, warnings, stats = _confidence(profile, matrix, spd, analysis, image, generic, source)
+    if unusable and mdl is not None and method == "model":
+        warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
+        confidence *= 0.5
     xyz = colour.spd_to_xyz(spd)
     xy = colour.xyz_to_xy(xyz)
     cct, duv = colour.cct_duv(xy)
