@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import json
 import os
 import sys
@@ -51,22 +52,41 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_output(path: Path | None, suffix: str | None = None) -> None:
+    """Refuse an output path that cannot be written before any photo is estimated."""
     if path is None:
         return
     if suffix and path.suffix.lower() != suffix:
         raise UsageError(f"{path} should end in {suffix}")
-    if not path.parent.resolve().is_dir():
-        raise UsageError(f"folder {path.parent} does not exist")
-    if path.is_dir():
-        raise UsageError(f"{path} is a folder")
+    try:
+        if not path.parent.resolve().is_dir():
+            raise UsageError(f"folder {path.parent} does not exist")
+        if path.is_dir():
+            raise UsageError(f"{path} is a folder")
+        if len(os.fsencode(path.name)) > _name_max(path.parent):
+            raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG))
+        _temp_beside(path).unlink()  # the same kind of temporary file the real write will use
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (AttributeError, OSError, ValueError):  # no pathconf (Windows) or no answer
+        return 255
+
+
+def _temp_beside(target: Path) -> Path:
+    """A new empty file in ``target``'s folder, named so it fits wherever ``target``'s name fits."""
+    fd, name = tempfile.mkstemp(prefix=f".{target.name[:32]}.", suffix=target.suffix[:16], dir=target.parent)
+    os.close(fd)
+    return Path(name)
 
 
 @contextlib.contextmanager
 def _atomic_path(target: Path) -> Iterator[Path]:
     """A temporary path next to ``target``, renamed onto it only if the block succeeds."""
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    tmp = Path(name)
+    tmp = _temp_beside(target)
     try:
         yield tmp
         os.replace(tmp, target)
@@ -99,8 +119,12 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
         raise UsageError(f"this build has no estimator ({exc})") from exc
     results = []
     for photo in args.photos:
-        if not photo.is_file():
-            raise UsageError(f"{photo}: no such file")
+        try:
+            photo.stat()
+        except FileNotFoundError:
+            raise UsageError(f"{photo}: no such file") from None
+        except OSError as exc:  # e.g. a name too long for the file system
+            raise UsageError(f"{photo}: cannot access the file ({exc.strerror or exc})") from None
         try:
             estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
                                       calibration=args.calibration)
@@ -138,8 +162,11 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
                 state.store_estimate(settings, data)
                 settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
                 settings.photo_path = str(data.get("source") or "")
-            with _atomic_path(path) as tmp:
-                bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+            try:
+                with _atomic_path(path) as tmp:
+                    bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+            except (OSError, RuntimeError) as exc:  # bpy reports a failed save as RuntimeError
+                raise UsageError(f"cannot write {path}: {' '.join(str(exc).split())}") from exc
         finally:
             properties.unregister()
 
@@ -152,8 +179,11 @@ def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print
     if args.blend is not None:
         write_blend(results, args.blend)
     if args.json is not None:
-        with _atomic_path(args.json) as tmp:
-            tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+        try:
+            with _atomic_path(args.json) as tmp:
+                tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+        except OSError as exc:  # e.g. the disk filled up since the check
+            raise UsageError(f"cannot write {args.json}: {exc.strerror or exc}") from exc
     for data in results:
         out(json.dumps(data))
     return 0
