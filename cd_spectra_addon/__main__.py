@@ -129,7 +129,8 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
             estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
                                       calibration=args.calibration)
         except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
-            raise UsageError(f"{photo}: {exc}") from exc
+            message = str(exc)  # the loader's messages already start with the path: say it once
+            raise UsageError(message if message.startswith(str(photo)) else f"{photo}: {message}") from exc
         results.append(estimate.to_json())
     return results
 
