@@ -105,8 +105,9 @@ def _bin_share(profile: Profile, mask: NDArray[np.bool_]) -> NDArray[np.float64]
     px = profile.pixels
     flagged = np.asarray(mask).reshape(-1)[px.index]
     vis2 = px.visibility ** 2
-    total = np.bincount(profile.pixel_bin, weights=vis2, minlength=profile.lambda_nm.size)
-    hit = np.bincount(profile.pixel_bin, weights=vis2 * flagged, minlength=profile.lambda_nm.size)
+    n = profile.lambda_nm.size
+    total = np.bincount(profile.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
+    hit = np.bincount(profile.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
     return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
 
 

@@ -161,6 +161,8 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
     energy = float(np.sum(vals ** 2)) if total is None else total
     if energy <= 0:
         return 1.0
+    if not np.any(inside):  # no pixel where a first-order rainbow could be (e.g. a telephoto EXIF)
+        return 1.0
     bi, vis, v = b[inside], px.visibility[inside], vals[inside]
     vv = np.bincount(bi, weights=vis * vis, minlength=N_FEATURES)
     explained = 0.0
