@@ -62,25 +62,29 @@ def model_inputs(
     geometry_residual: float,
 ) -> NDArray[np.float32]:
     """The input vector for one photo (float32, INPUT_SIZE)."""
-    values = np.where(profile.valid[:, None], profile.values, 0.0)
-    peak = float(np.max(values)) if np.any(profile.valid) else 0.0
-    scale = peak if peak > 0 else 1.0
-    noise = np.mean(profile.noise, axis=1)
-    snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
-    phys_peak = float(np.max(physics_spd))
-    physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
-    parts = [
-        (values / scale).ravel(),
-        profile.valid.astype(np.float64),
-        snr,
-        profile.saturated_fraction,
-        np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
-        physics,
-        np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),
-                  float(np.clip(geometry_residual, 0.0, 1.0))]),
-    ]
-    out = np.concatenate(parts).astype(np.float32)
-    return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
+    # Absurd profiles (a tiny peak beside huge invalid values) overflow here; the result is
+    # cleaned below, so numpy's warnings would only be noise in Blender's console.
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        values = np.where(profile.valid[:, None], profile.values, 0.0)
+        peak = float(np.max(values)) if np.any(profile.valid) else 0.0
+        scale = peak if peak > 0 else 1.0
+        noise = np.mean(profile.noise, axis=1)
+        snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
+        phys_peak = float(np.max(physics_spd))
+        physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
+        parts = [
+            (values / scale).ravel(),
+            profile.valid.astype(np.float64),
+            snr,
+            profile.saturated_fraction,
+            np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
+            physics,
+            np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),
+                      float(np.clip(geometry_residual, 0.0, 1.0))]),
+        ]
+    out = np.nan_to_num(np.concatenate(parts), nan=0.0, posinf=0.0, neginf=0.0)
+    limit = float(np.finfo(np.float32).max)
+    return np.where(np.abs(out) <= limit, out, 0.0).astype(np.float32)  # as before, without the overflow warning
 
 
 @dataclass
