@@ -131,9 +131,10 @@ def test_estimate_photo(runs: dict[str, Run], case: Case) -> None:
 
 
 def test_every_category_is_covered() -> None:
-    """The catalogue keeps the issue's list: files, formats, exposure, content, model, output."""
+    """The catalogue keeps the issue's list: files, formats, exposure, content, model, output
+    (and preset files, which the CLI and the API also take from users)."""
     categories = {c.category for c in CASES}
-    assert categories == {"file", "format", "exposure", "content", "model", "output"}
+    assert categories == {"file", "format", "exposure", "content", "model", "preset", "output"}
     assert {"empty-file", "truncated-jpeg", "text-as-png", "one-pixel", "bomb-png", "greyscale", "png-16bit",
             "cmyk-jpeg", "tiff-16bit", "exr-nan-inf-negative", "all-black", "all-white", "pure-noise", "no-disc",
             "disc-cut-by-frame", "disc-off-centre", "model-garbage-bytes", "model-layout-mismatch",

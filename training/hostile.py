@@ -95,6 +95,7 @@ class Case:
     model: str | None = None  # a broken model variant stands in for the shipped one
     cli_args: Callable[[Path], list[str]] | None = None  # extra CLI arguments (given the case folder)
     in_process: bool = True  # False: only the CLI can show it (output paths)
+    preset_json: str | None = None  # a preset file with this text is used instead of cd-default
     blender: bool = False  # part of the subset run through the Blender operators
 
 
@@ -367,6 +368,13 @@ CASES: tuple[Case, ...] = (
                        ("metadata-prior-shape", ("prior.mean",)), ("wrong-inputs", ("inputs/outputs",)),
                        ("wrong-output-length", ("inputs/outputs",)), ("nan-output", ()),
                        ]),
+    # -- a capture preset file given with --preset (or preset= in the API)
+    *(_case(f"preset-{n}", "preset", f"a good photo with a preset file whose {what}", _good,
+            Expect(CDSpectraError, ("not a valid preset", word)), preset_json=text)
+      for n, what, text, word in [
+          ("sigma-text", "lamp size is the word 'big'", '{"name": "x", "light": {"lobe_sigma": "big"}}', "lobe_sigma"),
+          ("zero-pitch", "track pitch is 0", '{"name": "x", "disc": {"pitch_um": 0}}', "pitch_um"),
+          ("not-json", "text is not JSON", "name = cd-default", "Expecting value")]),
     # -- where the results go (the CLI's --json; the add-on's export is tested on its own)
     _case("output-missing-folder", "output", "--json into a folder that does not exist", _good,
           Expect(CDSpectraError, ("does not exist",)), cli_args=lambda f: ["--json", str(f / "nowhere" / "out.json")],
@@ -390,6 +398,8 @@ def build_case(case: Case, folder: Path, base: Base | None = None) -> tuple[Path
     folder.mkdir(parents=True, exist_ok=True)
     path = case.build(folder, base or make_base())
     model_dir = None
+    if case.preset_json is not None:
+        (folder / "preset.json").write_text(case.preset_json, encoding="utf-8")
     if case.model is not None:
         model_dir = folder / "models"
         write_toy_model(model_dir, case.model)
@@ -457,6 +467,8 @@ def cli_command(photo_path: Path, extra: Sequence[str] = ()) -> list[str]:
 def run_cli(case: Case, folder: Path, photo_path: Path, model_dir: Path | None, timeout: float = 120.0) -> Outcome:
     """Run the CLI on one case in a child process; ``folder`` is listed afterwards (no leftovers)."""
     extra = case.cli_args(folder) if case.cli_args else []
+    if case.preset_json is not None:
+        extra += ["--preset", str(folder / "preset.json")]
     rss_file = folder / ".peak_rss"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "HOSTILE_RSS_OUT": str(rss_file), "PYTHONIOENCODING": "utf-8"}
     env.pop("HOSTILE_MODEL_DIR", None)
@@ -492,12 +504,13 @@ def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outc
     from cd_spectra_addon.core.estimate import estimate_photo
     from cd_spectra_addon.core.model import MODEL_DIR
 
+    preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else "cd-default"
     if model_dir is not None:
         model: Any = str(model_dir / f"{MODEL_NAME}.onnx")
     else:
         model = "shipped" if (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file() else None
     try:
-        result = estimate_photo(photo_path, model=model)
+        result = estimate_photo(photo_path, model=model, preset=preset)
     except CDSpectraError as exc:
         return Outcome(ok=False, error_type=type(exc).__name__, message=str(exc), error_class=type(exc))
     except Exception as exc:  # noqa: BLE001 -- recorded, so the suite and the report can name it
