@@ -262,7 +262,8 @@ def _validate(preset: Preset) -> None:
     if d.profile not in ("sinusoidal", "rectangular"):
         raise ValueError(f"disc.profile must be 'sinusoidal' or 'rectangular', not {d.profile!r}")
     if d.duty > 1.0 or d.hole_radius_mm >= d.rim_radius_mm or d.grating_r_min_mm >= d.grating_r_max_mm:
-        raise ValueError("disc: need duty ≤ 1, hole_radius_mm < rim_radius_mm and grating_r_min_mm < grating_r_max_mm")
+        raise ValueError("disc: need duty ≤ 1, hole_radius_mm < rim_radius_mm and "
+                         "grating_r_min_mm < grating_r_max_mm")
     for name in ("distance_mm", "focal_length_mm", "sensor_width_mm"):
         _number(f"camera.{name}", getattr(c, name), 0.0, low_open=True)
     for i, value in enumerate(c.image_size_px):

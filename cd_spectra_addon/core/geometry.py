@@ -286,7 +286,8 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         # A disc cut by the frame has no 180° twin for part of its rings, so the symmetry centre
         # can land far from it. Start once more from the best of a coarse grid of centres (this
         # costs time only on photos that were failing anyway).
-        grid = [(r, c) for r in np.linspace(0.0, sh - 1.0, RETRY_GRID) for c in np.linspace(0.0, sw - 1.0, RETRY_GRID)]
+        grid = [(r, c) for r in np.linspace(0.0, sh - 1.0, RETRY_GRID)
+                for c in np.linspace(0.0, sw - 1.0, RETRY_GRID)]
         costs = [cost_at(rc, rc, 0.0) for rc in grid]
         evals += len(grid)
         r0, c0 = grid[int(np.argmin(costs))]
