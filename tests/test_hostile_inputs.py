@@ -183,10 +183,10 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
     return request.getfixturevalue("addon")
 
 
-def _blender_case(case: Case, run: Run, addon: Installed, monkeypatch: pytest.MonkeyPatch) -> None:
+def _blender_case(case: Case, run: Run, installed: Installed, monkeypatch: pytest.MonkeyPatch) -> None:
     """Point the installed add-on's estimator at what the case needs."""
-    estimate = addon.sub("cd_spectra_addon.core.estimate")
-    model = addon.sub("cd_spectra_addon.core.model")
+    estimate = installed.sub("cd_spectra_addon.core.estimate")
+    model = installed.sub("cd_spectra_addon.core.model")
     monkeypatch.setattr(model, "_CACHE", {})
     if run.model_dir is not None:
         monkeypatch.setattr(model, "MODEL_DIR", run.model_dir)

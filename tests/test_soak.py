@@ -67,8 +67,8 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
     return request.getfixturevalue("addon")
 
 
-def _decoders(addon: Installed) -> int:
-    return len(addon.sub("cd_spectra_addon.core.images")._decoders)
+def _decoders(installed: Installed) -> int:
+    return len(installed.sub("cd_spectra_addon.core.images")._decoders)
 
 
 @pytest.mark.blender
