@@ -114,6 +114,7 @@ def test_cli(runs: dict[str, Run], case: Case) -> None:
         assert out.stderr_lines == []
         assert len(out.stdout.strip().splitlines()) == 1
         _check_result(case, out)
+    assert hostile.judge(case, out, "cli") == (True, "")  # the report's verdict is this test's
 
 
 @pytest.mark.parametrize("case", [c for c in CASES if c.in_process], ids=lambda c: c.name)
@@ -128,6 +129,7 @@ def test_estimate_photo(runs: dict[str, Run], case: Case) -> None:
     else:
         assert out.ok, f"{case.name}: {out.error_type}: {out.message}"
         _check_result(case, out)
+    assert hostile.judge(case, out, "api") == (True, "")
 
 
 def test_every_category_is_covered() -> None:

@@ -46,7 +46,7 @@ TRUE_CCT_K = 2856.0  # CIE A
 CCT_TOLERANCE_K = 150.0
 
 __all__ = ["Base", "Expect", "Case", "CASES", "make_base", "build_case", "write_toy_model", "CLI_RUNNER",
-           "cli_command", "run_cli", "run_in_process", "Outcome", "unwritable_folder"]
+           "cli_command", "run_cli", "run_in_process", "Outcome", "unwritable_folder", "judge"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,14 @@ class Base:
     linear: NDArray[np.float64]  # (H, W, 3) sensor-linear, clipped at 1
     exif: bytes
     spd: NDArray[np.float64]
+    cube: NDArray[np.float32]  # the basis cube, to synthesise other lamps and exposures
+    meter: NDArray[np.bool_]  # where the auto-exposure meters (the tracked area)
+
+    def shoot(self, spd: NDArray[np.float64], exposure: float = 1.0, seed: int = 7) -> NDArray[np.float64]:
+        """Another photo of the same capture: a lamp, an exposure, fresh camera noise."""
+        image, _ = photo.synthesize(self.cube, spd, load_camera(DEFAULT_CAMERA), exposure=exposure, noise=0.01,
+                                    rng=np.random.default_rng(seed), meter=self.meter)
+        return image
 
 
 @functools.lru_cache(maxsize=2)
@@ -67,11 +75,12 @@ def make_base(size: int = BASE_SIZE) -> Base:
     scene = Scene(load_preset("cd-default").with_image_size(size))
     cube = render_cube(scene, supersample=2)
     spd = known_lamp_spd("incandescent")
+    meter = photo.track_mask(scene)
     image, _ = photo.synthesize(cube, spd, load_camera(DEFAULT_CAMERA), noise=0.01,
-                                rng=np.random.default_rng(7), meter=photo.track_mask(scene))
+                                rng=np.random.default_rng(7), meter=meter)
     cam = scene.preset.camera
     exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], DEFAULT_CAMERA)
-    return Base(image, exif, spd)
+    return Base(image, exif, spd, cube, meter)
 
 
 @dataclass(frozen=True)
@@ -519,3 +528,35 @@ def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outc
     finite = bool(np.all(np.isfinite(result.spd)) and result.spd.min() >= 0 and np.isfinite(result.confidence))
     return Outcome(ok=True, message=" | ".join(result.warnings), confidence=result.confidence, cct_k=result.cct_k,
                    warnings=list(result.warnings), finite=finite, spd=[float(v) for v in result.spd])
+
+
+def judge(case: Case, out: Outcome, via: str) -> tuple[bool, str]:
+    """Does ``out`` (from ``via`` = "cli" or "api") meet the case's expectation? (ok, why not)."""
+    e = case.expect
+    if out.unexpected:
+        return False, f"raised {out.message}"
+    if via == "cli" and any("Traceback" in line for line in out.stderr_lines):
+        return False, "traceback on stderr"
+    if via == "cli" and out.files_after:
+        return False, f"left {out.files_after}"
+    if e.error is not None:
+        if out.ok:
+            return False, "a result where an error was expected"
+        if via == "cli" and (out.exit_code != 2 or len(out.stderr_lines) != 1
+                             or not out.stderr_lines[0].startswith("error: ")):
+            return False, f"exit {out.exit_code}, {len(out.stderr_lines)} stderr lines"
+        if via == "api" and not (out.error_class and issubclass(out.error_class, e.error)):
+            return False, f"{out.error_type}, not {e.error.__name__}"
+        missing = [w for w in e.words if w not in out.message]
+        return (not missing, f"message lacks {missing}" if missing else "")
+    if not out.ok:
+        return False, f"{out.error_type or 'exit ' + str(out.exit_code)}: {out.message}"
+    if not out.finite or len(out.spd) != N_BANDS or max(out.spd) != 1.0:
+        return False, "SPD not finite / not peak 1"
+    if out.confidence is None or not e.min_confidence <= out.confidence <= e.max_confidence:
+        return False, f"confidence {out.confidence} outside [{e.min_confidence}, {e.max_confidence}]"
+    if e.words and not any(all(w in text for w in e.words) for text in out.warnings):
+        return False, f"no warning with {e.words}"
+    if e.cct and (out.cct_k is None or abs(out.cct_k - TRUE_CCT_K) >= CCT_TOLERANCE_K):
+        return False, f"CCT {out.cct_k}"
+    return True, ""
