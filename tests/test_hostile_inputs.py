@@ -273,3 +273,34 @@ def test_cli_error_line_without_the_harness(tmp_path: Path) -> None:
 
 def test_cdspectra_error_is_the_only_kind_users_see() -> None:
     assert all(issubclass(c.expect.error, CDSpectraError) for c in CASES if c.expect.error is not None)
+
+
+@pytest.mark.blender
+@pytest.mark.parametrize("operator", ["create_light", "apply_to_light"])
+@pytest.mark.parametrize("where", ["wiring the light", "filling the node group"])
+def test_blender_failure_half_way_leaves_nothing(blender_addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                                 operator: str, where: str) -> None:
+    """An exception inside Blender half-way through (not bad input: a bpy error) leaves no light,
+    object or node group behind and does not change the selected light."""
+    bpy = pytest.importorskip("bpy")
+    light_mod = blender_addon.sub("cd_spectra_addon.blender.light")
+    group_mod = blender_addon.sub("cd_spectra_addon.blender.node_group")
+    blender_addon.sub("cd_spectra_addon.blender.state").store_estimate(bpy.context.scene.cd_spectra,
+                                                                      fake_estimate(blackbody_spd(3300.0)))
+    if operator == "apply_to_light":
+        bpy.ops.object.light_add(type="POINT")
+    target = bpy.context.object
+    colour = tuple(target.data.color) if operator == "apply_to_light" else None
+
+    def boom(*args: object, **kw: object) -> None:
+        raise RuntimeError("injected failure")
+
+    monkeypatch.setattr(light_mod if where == "wiring the light" else group_mod,
+                        "_wire" if where == "wiring the light" else "_fill", boom)
+    before = datablock_snapshot()
+    with pytest.raises(RuntimeError, match="injected failure"):
+        getattr(bpy.ops.cd_spectra, operator)()
+    assert datablock_snapshot() == before
+    if colour is not None:
+        assert tuple(target.data.color) == colour
+        assert not [k for k in target.data.keys() if k.startswith("cd_spectra")]
