@@ -1,11 +1,12 @@
 """Headless command line: estimate SPDs from CD photos without opening Blender.
 
     python -m cd_spectra_addon estimate PHOTO... [--preset NAME] [--camera NAME]
-        [--calibration NAME] [--json OUT.json] [--blend OUT.blend]
+        [--calibration NAME] [--json OUT.json] [--blend OUT.blend] [--plot OUT.png]
 
 Prints one JSON object per photo (``Estimate.to_json()``), one per line, in the order given.
 ``--json`` writes the same objects as a JSON array; ``--blend`` saves a Blender scene with one
-matched spot light per photo (bpy is imported only then). Output files appear whole or not at
+matched spot light per photo (bpy is imported only then); ``--plot`` draws the SPDs with their
+uncertainty (matplotlib, imported only then). Output files appear whole or not at
 all (written to a temporary file, then renamed). Bad input exits with status 2 and a single
 ``error: ...`` line on stderr, and writes nothing.
 """
@@ -48,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     est.add_argument("--calibration", default=None, help="calibration profile name")
     est.add_argument("--json", type=Path, metavar="OUT", help="also write the results as a JSON array")
     est.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")
+    est.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the SPDs (needs matplotlib)")
     return parser
 
 
@@ -95,6 +97,15 @@ def _atomic_path(target: Path) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """An OSError while writing ``path`` (the disk filled up since the check, ...) is one error line."""
+    try:
+        yield
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
+@contextlib.contextmanager
 def _quiet_fds() -> Iterator[None]:
     """Silence Blender's C-level prints (they would mix with the JSON on stdout)."""
     sys.stdout.flush()
@@ -135,6 +146,51 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
     return results
 
 
+def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
+    """The estimated SPDs with their one-sigma band, the physics-only solution dashed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:
+        raise UsageError(f"--plot needs matplotlib ({exc})") from exc
+    fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=120)
+    for data in results:
+        wl, spd = data["wavelength_nm"], data["spd"]
+        label = Path(str(data.get("source", ""))).name
+        cct = data.get("cct_k")
+        if cct:
+            label += f" ({cct:.0f} K)"
+        line = ax.plot(wl, spd, lw=1.8, label=label)[0]
+        lo = [max(0.0, v - s) for v, s in zip(spd, data["spd_std"])]
+        hi = [v + s for v, s in zip(spd, data["spd_std"])]
+        ax.fill_between(wl, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+        if "physics_spd" in data:
+            ax.plot(wl, data["physics_spd"], ls="--", lw=0.8, color=line.get_color(), alpha=0.7)
+    ax.axvspan(380, 400, color="0.9", lw=0)
+    ax.axvspan(700, 780, color="0.9", lw=0)
+    ax.set(xlim=(380, 780), ylim=(0, 1.15), xlabel="wavelength (nm)", ylabel="relative power",
+           title="CD Spectra estimate (shaded: camera nearly blind; dashed: physics only)")
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    with _atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def _blender_fallback_decoder(path: str, header: Any) -> Any:
+    """Blender's image loader for the few photo layouts Pillow cannot read (16-bit grey+alpha,
+    float TIFF, ...): bpy is imported only when such a photo turns up."""
+    try:
+        with _quiet_fds():
+            from .blender.image_decoder import decode_with_blender
+    except ImportError:
+        return None
+    with _quiet_fds():
+        return decode_with_blender(path, header)
+
+
 def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
     """A scene with one matched spot light per estimate, 1 m apart, 2 m up, pointing down."""
     with _quiet_fds():
@@ -166,7 +222,7 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
             try:
                 with _atomic_path(path) as tmp:
                     bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
-            except (OSError, RuntimeError) as exc:  # bpy reports a failed save as RuntimeError
+            except RuntimeError as exc:  # bpy reports a failed save as RuntimeError
                 raise UsageError(f"cannot write {path}: {' '.join(str(exc).split())}") from exc
         finally:
             properties.unregister()
@@ -176,15 +232,23 @@ def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print
     args = build_parser().parse_args(argv)
     _check_output(args.json)
     _check_output(args.blend, ".blend")
-    results = _estimate_all(args)
+    _check_output(args.plot, ".png")
+    from .core.images import register_decoder, unregister_decoder
+
+    register_decoder(_blender_fallback_decoder)
+    try:
+        results = _estimate_all(args)
+    finally:
+        unregister_decoder(_blender_fallback_decoder)
     if args.blend is not None:
-        write_blend(results, args.blend)
+        with _writing(args.blend):
+            write_blend(results, args.blend)
+    if args.plot is not None:
+        with _writing(args.plot):
+            write_plot(results, args.plot)
     if args.json is not None:
-        try:
-            with _atomic_path(args.json) as tmp:
-                tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
-        except OSError as exc:  # e.g. the disk filled up since the check
-            raise UsageError(f"cannot write {args.json}: {exc.strerror or exc}") from exc
+        with _writing(args.json), _atomic_path(args.json) as tmp:
+            tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     for data in results:
         out(json.dumps(data))
     return 0

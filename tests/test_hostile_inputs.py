@@ -85,8 +85,8 @@ def _warning_with(words: tuple[str, ...], warnings: list[str]) -> bool:
     return not words or any(all(w in text for w in words) for text in warnings)
 
 
-def _check_result(case: Case, out: Outcome) -> None:
-    e = case.expect
+def _check_result(case: Case, out: Outcome, via: str) -> None:
+    e = case.expected(via)
     assert out.finite, f"{case.name}: SPD or confidence not finite / negative"
     assert len(out.spd) == 81 and max(out.spd) == 1.0
     assert out.confidence is not None and e.min_confidence <= out.confidence <= e.max_confidence, (
@@ -102,10 +102,11 @@ def test_cli(runs: dict[str, Run], case: Case) -> None:
     assert out is not None
     assert not any("Traceback" in line for line in out.stderr_lines), "\n".join(out.stderr_lines)
     assert out.files_after == [], f"files left behind: {out.files_after}"
-    if case.expect.error is not None:
+    expect = case.expected("cli")
+    if expect.error is not None:
         assert out.exit_code == 2, (out.exit_code, out.stderr_lines, out.stdout[-500:])
         assert len(out.stderr_lines) == 1 and out.stderr_lines[0].startswith("error: "), out.stderr_lines
-        assert all(w in out.stderr_lines[0] for w in case.expect.words), out.stderr_lines[0]
+        assert all(w in out.stderr_lines[0] for w in expect.words), out.stderr_lines[0]
         assert out.stdout == ""
         photo = str(runs[case.name].photo)
         assert not out.stderr_lines[0].startswith(f"error: {photo}: {photo}"), "the path is said twice"
@@ -113,7 +114,7 @@ def test_cli(runs: dict[str, Run], case: Case) -> None:
         assert out.exit_code == 0, out.stderr_lines
         assert out.stderr_lines == []
         assert len(out.stdout.strip().splitlines()) == 1
-        _check_result(case, out)
+        _check_result(case, out, "cli")
     assert hostile.judge(case, out, "cli") == (True, "")  # the report's verdict is this test's
 
 
@@ -128,7 +129,7 @@ def test_estimate_photo(runs: dict[str, Run], case: Case) -> None:
         assert all(w in out.message for w in case.expect.words), out.message
     else:
         assert out.ok, f"{case.name}: {out.error_type}: {out.message}"
-        _check_result(case, out)
+        _check_result(case, out, "api")
     assert hostile.judge(case, out, "api") == (True, "")
 
 

@@ -241,6 +241,7 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             peak = float(e_phys.max())
             physics[i] = e_phys / peak if peak > 0 else 0.0
             meta[i] = (k, noise, exposure, float(use_generic))
+    print(f"  cube {spec.name}: {job.n_samples} samples", flush=True)
     return {"inputs": inputs, "targets": spds.astype(np.float32), "physics": physics, "meta": meta,
             "family": np.array(families), "cube": np.array([spec.name] * job.n_samples)}
 

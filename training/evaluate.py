@@ -136,7 +136,7 @@ def _calibration_for(photos: _Photos, cond: Condition, model) -> Calibration:
     """A calibration shot of a household incandescent bulb (CIE A) in the same setup."""
     ref = known_lamp_spd("incandescent")
     path = photos.write(replace(cond, calibrate=False), ref, seed=99, tag="calibration")
-    image = load_photo(path)
+    image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
     preset = load_preset(cond.spec.preset)
     focal, _ = focal_px_for(image, preset)
     analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
@@ -155,7 +155,9 @@ def run_condition(photos: _Photos, cond: Condition, lamps: list[Lamp], model, me
     for i, lamp in enumerate(lamps):
         path = photos.write(cond, lamp.spd, seed=seed * 100_003 + i)
         t0 = time.perf_counter()
-        image = load_photo(path)
+        # Read back at the cube's resolution: the photo's pixels then have the footprint the
+        # renderer integrated over (a real camera's pixels always do).
+        image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
         fit = None
         if cond.center_error_px:
             focal, _ = focal_px_for(image, preset)

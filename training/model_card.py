@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Any
 
 from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME

@@ -42,7 +42,12 @@ def _short(text: str, folder: Path, limit: int = 170) -> str:
 
 
 def _expected(case: hostile.Case) -> str:
-    e = case.expect
+    if case.cli_expect is not None:
+        return f"CLI: {_expectation(case.cli_expect)}; API: {_expectation(case.expect)}"
+    return _expectation(case.expect)
+
+
+def _expectation(e: hostile.Expect) -> str:
     if e.error is not None:
         return f"{e.error.__name__}: " + ", ".join(f"“{w}”" for w in e.words)
     parts = [f"result, confidence ≤ {e.max_confidence:g}" if e.max_confidence < 1 else "result"]
@@ -104,7 +109,7 @@ def run_hostile() -> tuple[list[str], list[str]]:
                 verdicts.append(hostile.judge(case, api[case.name], "api"))
             ok = all(v[0] for v in verdicts)
             tally["met"] += ok
-            tally["errors" if case.expect.error is not None else "results"] += 1
+            tally["errors" if case.expected("cli").error is not None else "results"] += 1
             if not ok:
                 failures.append(f"{case.name}: " + "; ".join(v[1] for v in verdicts if not v[0]))
             rows.append(f"| {case.category} | {case.name} | {case.what} | {_expected(case)} | "

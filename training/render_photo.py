@@ -3,7 +3,7 @@
     python -m training.render_photo --spd SPD.csv --out DIR [--preset NAME]
         [--camera NAME|FILE.json] [--format exr|png|png16|jpg] [--noise F] [--exposure F]
         [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y] [--seed N]
-        [--size W [H]] [--engine cycles|numpy] [--samples N] [--cache-dir DIR]
+        [--size W [H]] [--upsample K] [--engine cycles|numpy] [--samples N] [--cache-dir DIR]
     python -m training.render_photo --print-geometry [--preset NAME] [...pose options]
 
 SPD.csv: wavelength (nm) in the first column, one SPD per further column (any sampling).
@@ -47,6 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
                    help="disc tilt about the x and y axes")
     p.add_argument("--size", type=int, nargs="+", metavar="PX", help="image width [height] (default: preset)")
+    p.add_argument("--upsample", type=int, default=1, metavar="K",
+                   help="the photo has K× the basis cube's pixels per side (noise per photo pixel)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--engine", choices=ENGINES, default="cycles")
     p.add_argument("--samples", type=int, help="Cycles samples per pixel (default: preset)")
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--spd and --out are required (or use --print-geometry)")
     if args.noise < 0 or args.noise > 1 or not args.exposure > 0:
         raise ValueError("--noise must be in [0, 1] and --exposure > 0")
+    if not 1 <= args.upsample <= 8:
+        raise ValueError("--upsample takes 1 to 8")
     table = read_spectra_csv(args.spd)
     spds = table.on_grid()
     for name, spd in zip(table.names, spds):
@@ -83,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     cube, cube_meta = basis_cube(scene, args.engine, args.samples, args.cache_dir,
                                  log=lambda m: print(m, file=sys.stderr))
     cam = scene.preset.camera
-    exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
+    exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * args.upsample, camera.name)
     ext = {"png16": "png"}.get(args.format, args.format)
     rng = np.random.default_rng(args.seed)
     meter = photo.track_mask(scene)
@@ -94,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
         while stem in used:
             stem += "_"
         used.add(stem)
-        image, gain = photo.synthesize(cube, spd, camera, args.exposure, args.noise, rng, meter)
+        image, gain = photo.expose(photo.linear_photo(cube, spd, camera), args.exposure, meter)
+        image = np.minimum(photo.add_noise(photo.upsample(image, args.upsample), args.noise, rng), 1.0)
         path = args.out / f"{stem}.{ext}"
         photo.write_photo(path, image, args.format, exif)
         written.append({"spd": name, "file": path.name,

@@ -27,12 +27,13 @@ from torch import nn
 from cd_spectra_addon import __version__
 from cd_spectra_addon.core import geometry, profile, solve
 from cd_spectra_addon.core.capture import preset_names, PRESET_DIR
-from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash
+from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from .basis import REPO
 from .dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
 from .spd_prior import gaussian_prior
+from .tune_fusion import report, tune
 
 BAND_WEIGHT = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 1.0, 0.5)
 
@@ -175,7 +176,7 @@ def write_json(path: Path, payload: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--set", default="full", choices=sorted(CUBE_SETS))
-    parser.add_argument("--n-per-cube", type=int, default=2000)
+    parser.add_argument("--n-per-cube", type=int, default=1600)
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))
@@ -216,6 +217,13 @@ def main(argv: list[str] | None = None) -> int:
     onnx_path = args.out / f"{MODEL_NAME}.onnx"
     diff = export_onnx(model, onnx_path, metadata)
     metadata["onnx_parity_max_abs_diff"] = diff
+    write_json(onnx_path.with_suffix(".json"), metadata)
+    # How far the final solve trusts the network: chosen on synthetic photos, stored with it.
+    fusion = tune(load_model(onnx_path), args.set, 48 if args.set == "full" else 6, args.engine)
+    metadata["fusion"] = {"strength": fusion["strength"], "floor": fusion["floor"],
+                          "chosen_on": f"{fusion['n_photos']} synthetic photos (training.tune_fusion)"}
+    if args.set == "full":
+        (REPO / "bench" / "fusion_tuning.md").write_text(report(fusion), encoding="utf-8")
     metadata["training"]["total_seconds"] = time.perf_counter() - t0
     write_json(onnx_path.with_suffix(".json"), metadata)
     print(f"wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB), parity {diff:.1e}, "

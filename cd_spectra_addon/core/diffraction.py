@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from . import grating
 from .capture import Scene
 
 __all__ = ["PixelDiffraction", "pixel_diffraction"]
@@ -27,12 +28,18 @@ class PixelDiffraction:
     index: NDArray[np.int64]  # flat pixel index into the (H, W) image
     lambda1_nm: NDArray[np.float64]  # first-order wavelength d·|u|
     visibility: NDArray[np.float64]  # exp(−v² / 2σ²)
+    gain: NDArray[np.float64]  # irradiance · G/w² relative to the lamp's irradiance at the disc centre
     radius_mm: NDArray[np.float64]  # distance from the disc centre on the disc
     on_tracks: NDArray[np.bool_]  # inside the grating annulus
     u: NDArray[np.float64]
     v: NDArray[np.float64]
     points: NDArray[np.float64]  # world positions on the disc (metres)
     view: NDArray[np.float64]  # unit directions to the camera
+
+    @property
+    def amplitude(self) -> NDArray[np.float64]:
+        """What a unit of λ₁-profile becomes at this pixel: visibility × geometric gain."""
+        return self.visibility * self.gain
 
 
 def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
@@ -62,12 +69,27 @@ def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
     r_hat = radial / np.maximum(radius, 1e-12)[:, None]
     t_hat = np.cross(n, r_hat)
     to_light = scene.light_position - points
-    wi = to_light / np.linalg.norm(to_light, axis=1, keepdims=True)
+    dist2 = np.einsum("ij,ij->i", to_light, to_light)
+    wi = to_light / np.sqrt(dist2)[:, None]
     wo = -dirs
     h = wi + wo
     u = np.einsum("ij,ij->i", h, r_hat)
     v = np.einsum("ij,ij->i", h, t_hat)
-    return _finish(scene, index, u, v, radius, points, wo)
+    gain = _gain(scene, wi @ n, wo @ n, np.einsum("ij,ij->i", wi, wo), dist2)
+    return _finish(scene, index, u, v, radius, points, wo, gain)
+
+
+def _gain(scene: Scene, cos_i: NDArray[np.float64], cos_o: NDArray[np.float64], dot_io: NDArray[np.float64],
+          dist2: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The BRDF's slowly varying geometric factor, irradiance × Stam's G/w² (as in
+    grating.surface_frame), relative to its value where the lamp's axis meets the disc: pixels
+    that share λ₁ then share A in I = A·visibility·gain wherever they are on the disc."""
+    ci = np.clip(cos_i, grating.COS_EPS, 1.0)
+    co = np.clip(cos_o, grating.COS_EPS, 1.0)
+    w = ci + co
+    g = (1.0 + dot_io) ** 2 / (ci * co * w * w)
+    ref = float(np.sum((scene.light_position - scene.disc_center) ** 2))
+    return np.where((cos_i > 0) & (cos_o > 0), g * ci * ref / dist2, 0.0)
 
 
 def _untilted(scene: Scene, index: NDArray[np.int64], rows: NDArray[np.float64],
@@ -92,19 +114,22 @@ def _untilted(scene: Scene, index: NDArray[np.int64], rows: NDArray[np.float64],
     wo = np.stack([-x * inv, -y * inv, f * inv], axis=1)
     lx, ly, lz = scene.light_position
     dx, dy = lx - px, ly - py
-    inv_l = 1.0 / np.sqrt(dx * dx + dy * dy + lz * lz)
+    dist2 = dx * dx + dy * dy + lz * lz
+    inv_l = 1.0 / np.sqrt(dist2)
     hx = dx * inv_l + wo[:, 0]
     hy = dy * inv_l + wo[:, 1]
     rx, ry = px / radius, py / radius
     u = hx * rx + hy * ry
     v = hy * rx - hx * ry  # t̂ = n × r̂ = (−r̂y, r̂x)
     points = np.stack([px, py, np.zeros_like(px)], axis=1)
-    return _finish(scene, index, u, v, radius, points, wo)
+    dot_io = (dx * wo[:, 0] + dy * wo[:, 1] + lz * wo[:, 2]) * inv_l
+    gain = _gain(scene, lz * inv_l, wo[:, 2], dot_io, dist2)
+    return _finish(scene, index, u, v, radius, points, wo, gain)
 
 
 def _finish(scene: Scene, index: NDArray[np.int64], u: NDArray[np.float64], v: NDArray[np.float64],
-            radius: NDArray[np.float64], points: NDArray[np.float64], view: NDArray[np.float64]
-            ) -> PixelDiffraction:
+            radius: NDArray[np.float64], points: NDArray[np.float64], view: NDArray[np.float64],
+            gain: NDArray[np.float64]) -> PixelDiffraction:
     sigma = scene.preset.light.lobe_sigma
     disc = scene.preset.disc
     radius_mm = radius * 1e3
@@ -112,6 +137,7 @@ def _finish(scene: Scene, index: NDArray[np.int64], u: NDArray[np.float64], v: N
         index=index,
         lambda1_nm=np.abs(u) * disc.pitch_um * 1e3,
         visibility=np.exp(-(v * v) / (2.0 * sigma * sigma)),
+        gain=gain,
         radius_mm=radius_mm,
         on_tracks=(radius_mm >= disc.grating_r_min_mm) & (radius_mm <= disc.grating_r_max_mm),
         u=u,

@@ -32,7 +32,7 @@ from .images import LinearImage, load_photo
 from .model import SpectralModel, load_model, model_inputs
 from .profile import Profile
 from .result import DiscFit, Estimate
-from .solve import GaussianPrior, physics_solve, prior_solve
+from .solve import GaussianPrior, fused_solve, physics_solve, prior_solve
 from .spectral_grid import WAVELENGTHS_NM
 
 MAX_SIDE = 1024
@@ -93,6 +93,12 @@ def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float
         cached = (prior, prior.precision())
         model.metadata["_prior_cache"] = cached
     return cached
+
+
+def _fusion(model: SpectralModel) -> tuple[float, float]:
+    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built."""
+    f = model.metadata.get("fusion") or {}
+    return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
 
 
 def _calibrated(profile: Profile, calibration: Calibration | None) -> Profile:
@@ -203,6 +209,7 @@ def estimate_image(
     progress: Progress | None = None,
     method: str = "model",
     fit: GeometryFit | None = None,
+    fusion: tuple[float, float] | None = None,
 ) -> Estimate:
     """Estimate from an already loaded photo (see :func:`estimate_photo`).
 
@@ -254,7 +261,9 @@ def estimate_image(
     sigma = analysis.scene.preset.light.lobe_sigma
     if mdl is not None and method == "model":
         x = model_inputs(profile, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
-        spd, std = mdl.predict(x)
+        net, std = mdl.predict(x)
+        strength, floor = fusion or _fusion(mdl)
+        spd = fused_solve(profile, matrix, net, std, strength, floor) if strength > 0 else net
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
     spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)

@@ -30,11 +30,11 @@ def bin_response(scene: Scene, profile: Profile) -> NDArray[np.float64]:
 
     Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by smooth
     geometric factors. So the bin is split into λ₁ sub-bins; each sub-bin's weight
-    (Σ w·visibility²) comes from all its pixels, its response from its heaviest pixel, averaged
+    (Σ w·amplitude²) comes from all its pixels, its response from its heaviest pixel, averaged
     over that pixel's footprint like the photo's pixel is.
     """
     px = profile.pixels
-    w = profile.pixel_weight * px.visibility ** 2
+    w = profile.pixel_weight * px.amplitude ** 2
     n_bands = WAVELENGTHS_NM.size
     response = np.zeros((N_FEATURES, n_bands))
     live = np.flatnonzero(w > 0)
@@ -71,7 +71,7 @@ def bin_response(scene: Scene, profile: Profile) -> NDArray[np.float64]:
     footprint = np.zeros((rep.size, n_bands))
     np.add.at(footprint, owner, radiance)
     footprint /= dr.size  # missing samples count as black, as in the photo
-    per_unit = footprint / px.visibility[rep, None]
+    per_unit = footprint / px.amplitude[rep, None]
     sub_response = np.zeros((n_sub, n_bands))
     sub_response[rep_sub] = per_unit * sub_weight[rep_sub, None]
     response = sub_response.reshape(N_FEATURES, SUB_BINS, n_bands).sum(axis=1)

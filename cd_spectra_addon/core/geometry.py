@@ -24,11 +24,10 @@ from .diffraction import pixel_diffraction
 from .profile import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
 
 FIT_SIDE = 160  # the pose is fitted on an image of about this size
-# The fitted lamp size stays within this factor of the preset's: a lamp 10× larger or smaller
-# than assumed (0.0003–0.03 rad for the default 0.003) covers every capture the guide allows.
-# Unbounded, a photo without a rainbow sent σ to 1e50 (every pixel "visible", nothing to
-# explain) and the forward model then asked numpy for an array of 1e51 bands.
-SIGMA_RANGE = 10.0
+# λ₁ bins of the fit: finer than the features, so a lamp line sharper than a feature bin does not
+# make pixels of one bin disagree (and pull the fit towards putting lines at bin centres).
+FIT_STEP_NM = 2.0
+FINE_PIXELS = 12_000  # pixels the full-resolution refinement looks at
 RETRY_CONTRAST = 0.5  # below this rainbow contrast the fit is tried again from a grid of centres
 RETRY_GRID = 7  # centres per image axis for that second start
 RETRY_MAX_RESIDUAL = 0.15  # ...whose fit is kept only if it explains a CD's share of the photo
@@ -140,22 +139,23 @@ def scene_for(
 
 
 def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = None,
-                scramble: bool = False) -> float:
-    """Share of the photo's energy on the disc that I = A(λ₁)·visibility cannot explain,
+                scramble: bool = False, step_nm: float = FEATURE_STEP_NM,
+                pixels: NDArray[np.int64] | None = None) -> float:
+    """Share of the photo's energy on the disc that I = A(λ₁)·amplitude cannot explain,
     with A fitted per λ₁ bin and channel by least squares.
 
     ``scramble`` deals the pixels' (λ₁, visibility) pairs out at random (seeded): the same
     coverage and bin sizes, but no rainbow geometry — the baseline a real rainbow must beat.
     """
-    h, w, _ = rgb.shape
-    px = pixel_diffraction(scene)
+    px = pixel_diffraction(scene, pixels)
     if scramble:
         order = np.random.default_rng(0).permutation(px.index.size)
         px = replace(px, lambda1_nm=px.lambda1_nm[order], visibility=px.visibility[order],
-                     on_tracks=px.on_tracks[order])
+                     gain=px.gain[order], on_tracks=px.on_tracks[order])
     lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
-    b = np.floor((px.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
-    inside = px.on_tracks & (b >= 0) & (b < N_FEATURES)
+    n_bins = int(round(N_FEATURES * FEATURE_STEP_NM / step_nm))
+    b = np.floor((px.lambda1_nm - lam0) / step_nm).astype(np.int64)
+    inside = px.on_tracks & (b >= 0) & (b < n_bins)
     flat = rgb.reshape(-1, 3)
     vals = flat[px.index]
     energy = float(np.sum(vals ** 2)) if total is None else total
@@ -163,13 +163,17 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
         return 1.0
     if not np.any(inside):  # no pixel where a first-order rainbow could be (e.g. a telephoto EXIF)
         return 1.0
-    bi, vis, v = b[inside], px.visibility[inside], vals[inside]
-    vv = np.bincount(bi, weights=vis * vis, minlength=N_FEATURES)
+    bi, vis, v = b[inside], px.amplitude[inside], vals[inside]
+    vv = np.bincount(bi, weights=vis * vis, minlength=n_bins)
     explained = 0.0
     for c in range(3):
-        vi = np.bincount(bi, weights=vis * v[:, c], minlength=N_FEATURES)
+        vi = np.bincount(bi, weights=vis * v[:, c], minlength=n_bins)
         explained += float(np.sum(np.divide(vi * vi, vv, out=np.zeros_like(vi), where=vv > 1e-12)))
     return 1.0 - explained / energy
+
+
+def _contrast(residual: float, null_residual: float) -> float:
+    return 0.0 if null_residual <= 0 else max(0.0, 1.0 - residual / null_residual)
 
 
 def _nelder_mead(f, x0: NDArray[np.float64], steps: NDArray[np.float64], max_evals: int,
@@ -208,10 +212,6 @@ def _nelder_mead(f, x0: NDArray[np.float64], steps: NDArray[np.float64], max_eva
     return simplex[best], float(values[best]), evals
 
 
-def _contrast(residual: float, null_residual: float) -> float:
-    return 0.0 if null_residual <= 0 else max(0.0, 1.0 - residual / null_residual)
-
-
 def _axis_of_arcs(lum: NDArray[np.float64], centre: tuple[float, float], r_min: float, r_max: float
                   ) -> tuple[float, float]:
     """Angle of the line the rainbow concentrates on, and how strongly (0 = full rings, 1 = two
@@ -227,6 +227,41 @@ def _axis_of_arcs(lum: NDArray[np.float64], centre: tuple[float, float], r_min: 
     phase = np.exp(2j * np.arctan2(-dy[sel], dx[sel]))
     harmonic = complex(np.sum(w * phase)) / total
     return 0.5 * math.atan2(harmonic.imag, harmonic.real), abs(harmonic)
+
+
+def _informative_pixels(rgb: NDArray[np.float64], count: int) -> NDArray[np.int64]:
+    """Flat indices of up to ``count`` pixels: the brightest part of the rainbow, where the
+    geometry shows, plus an even share of dark ones, where it must predict darkness."""
+    lum = rgb.sum(axis=2).ravel()
+    order = np.argsort(lum)[::-1]
+    bright = order[: count // 2]
+    rest = order[count // 2:]
+    step = max(1, rest.size // max(1, count - bright.size))
+    return np.sort(np.concatenate([bright, rest[::step]]))
+
+
+def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: float, centre: tuple[float, float],
+            ring: tuple[float, float], sigma: float, max_evals: int) -> tuple[tuple[float, float], tuple[float, float],
+                                                                             float, int]:
+    """Both centres again at full resolution, on a subset of pixels, with fine λ₁ bins.
+
+    Arcs and streaks pin the geometry only through their few pixels; at the coarse fit's
+    resolution each pixel spans more than 10 nm of λ₁, too blurred to place the centres to the
+    fraction of a pixel the spectrum needs."""
+    height, width, _ = rgb.shape
+    subset = _informative_pixels(rgb, FINE_PIXELS)
+    total = float(np.sum(rgb.reshape(-1, 3)[subset] ** 2))
+
+    def cost(y: NDArray[np.float64]) -> float:
+        scene = scene_for(preset, (width, height), focal_px, (y[0], y[1]), (y[2], y[3]), sigma, dist)
+        return consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=subset)
+
+    y = np.array([centre[0], centre[1], ring[0], ring[1]])
+    value, evals = cost(y), 1
+    for size in (1.0, 0.4, 0.15):
+        y, value, more = _nelder_mead(cost, y, np.full(4, size), max_evals // 2)
+        evals += more
+    return (float(y[0]), float(y[1])), (float(y[2]), float(y[3])), value, evals
 
 
 def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
@@ -245,13 +280,8 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     sigma0 = preset.light.lobe_sigma
     px_per_mm = f_small / dist
 
-    log_limit = math.log(SIGMA_RANGE)
-
-    def sigma_of(log_sigma: float) -> float:
-        return sigma0 * math.exp(min(max(float(log_sigma), -log_limit), log_limit))
-
     def cost_at(centre: tuple[float, float], ring: tuple[float, float], log_sigma: float) -> float:
-        scene = scene_for(preset, (sw, sh), f_small, centre, ring, sigma_of(log_sigma), dist)
+        scene = scene_for(preset, (sw, sh), f_small, centre, ring, sigma0 * math.exp(log_sigma), dist)
         return consistency(small, scene, total)
 
     # Where is the disc centre? On the line the arcs follow, at a distance the fit decides.
@@ -269,19 +299,51 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     start = np.array([sym[0] + best_t * px_per_mm * axis[0], sym[1] + best_t * px_per_mm * axis[1],
                       sym[0], sym[1], 0.0])
 
-    def cost(x: NDArray[np.float64]) -> float:
-        return cost_at((x[0], x[1]), (x[2], x[3]), x[4])
+    def cost(x: NDArray[np.float64], log_sigma: float = 0.0) -> float:
+        return cost_at((x[0], x[1]), (x[2], x[3]), log_sigma)
 
-    def null_of(x: NDArray[np.float64]) -> float:
+    # Disc and ring centres at the preset's lamp size. With full rings the lamp size is not
+    # observable (every pixel sees its lobe head-on), so it stays what the preset says.
+    steps = np.array([0.5, 0.5, 0.3, 0.3])
+    x, value, more = _nelder_mead(cost, start[:4], steps, max_evals)
+    evals += more
+    # Restart from the best point with a fresh simplex: Nelder–Mead stalls in the narrow valley
+    # where moving both centres together along a streak barely changes the fit.
+    for shrink in (1.0, 0.3):
+        x, value, more = _nelder_mead(cost, x, steps * shrink, max_evals // 2)
+        evals += more
+    log_sigma = 0.0
+    if strength >= 0.05:
+        # Arcs and streaks: their angular width measures the lamp size. Golden-section search
+        # on log σ within a factor of 3 of the preset, then the centres again.
+        lo, hi = -math.log(3.0), math.log(3.0)
+        g = (math.sqrt(5.0) - 1.0) / 2.0
+        a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+        fa, fb = cost(x, a), cost(x, b)
+        for _ in range(14):
+            if fa < fb:
+                hi, b, fb = b, a, fa
+                a = hi - g * (hi - lo)
+                fa = cost(x, a)
+            else:
+                lo, a, fa = a, b, fb
+                b = lo + g * (hi - lo)
+                fb = cost(x, b)
+        evals += 16
+        log_sigma = 0.5 * (lo + hi)
+        x, value, more = _nelder_mead(lambda y: cost(y, log_sigma), x, 0.5 * steps, max_evals // 2)
+        evals += more
+    x = np.append(x, log_sigma)
+
+    def to_full(rc: tuple[float, float]) -> tuple[float, float]:
+        return ((rc[0] + 0.5) / scale - 0.5, (rc[1] + 0.5) / scale - 0.5)
+
+    def null_of(y: NDArray[np.float64]) -> float:
         """The fitted disc with its pixels' diffraction coordinates dealt out at random."""
-        scene = scene_for(preset, (sw, sh), f_small, (x[0], x[1]), (x[2], x[3]), sigma_of(x[4]), dist)
+        scene = scene_for(preset, (sw, sh), f_small, (y[0], y[1]), (y[2], y[3]), sigma0 * math.exp(y[4]), dist)
         return consistency(small, scene, total, scramble=True)
 
-    steps = np.array([0.5, 0.5, 0.3, 0.3, 0.3])
-    x, value, more = _nelder_mead(cost, start, steps, max_evals)
-    evals += more
     null = null_of(x)
-    evals += 1
     if _contrast(value, null) < RETRY_CONTRAST:
         # A disc cut by the frame has no 180° twin for part of its rings, so the symmetry centre
         # can land far from it. Start once more from the best of a coarse grid of centres (this
@@ -289,27 +351,28 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         grid = [(r, c) for r in np.linspace(0.0, sh - 1.0, RETRY_GRID)
                 for c in np.linspace(0.0, sw - 1.0, RETRY_GRID)]
         costs = [cost_at(rc, rc, 0.0) for rc in grid]
-        evals += len(grid)
         r0, c0 = grid[int(np.argmin(costs))]
-        x2, value2, more = _nelder_mead(cost, np.array([r0, c0, r0, c0, 0.0]), steps, max_evals)
-        null2 = null_of(x2)
-        evals += more + 1
+        y, value2, more = _nelder_mead(cost, np.array([r0, c0, r0, c0]), steps, max_evals)
+        y = np.append(y, 0.0)
+        null2 = null_of(y)
+        evals += len(grid) + more + 1
         # Searching more places finds more chance structure, so the second fit must also explain
         # the photo as a CD rainbow does (a grey blob reached contrast 0.72 at residual 0.27).
         if value2 <= RETRY_MAX_RESIDUAL and _contrast(value2, null2) > _contrast(value, null):
-            x, value, null = x2, value2, null2
-
-    def to_full(rc: tuple[float, float]) -> tuple[float, float]:
-        return ((rc[0] + 0.5) / scale - 0.5, (rc[1] + 0.5) / scale - 0.5)
-
+            x, value, null = y, value2, null2
+    centre, ring = to_full((x[0], x[1])), to_full((x[2], x[3]))
+    if strength >= 0.05 and factor > 1:
+        centre, ring, value, more = _refine(np.asarray(rgb, dtype=np.float64), preset, focal_px, dist, centre, ring,
+                                            sigma0 * math.exp(x[4]), max_evals)
+        evals += more
     return GeometryFit(
-        center_px=to_full((x[0], x[1])),
-        ring_center_px=to_full((x[2], x[3])),
-        lobe_sigma=sigma_of(x[4]),
+        center_px=centre,
+        ring_center_px=ring,
+        lobe_sigma=float(sigma0 * math.exp(x[4])),
         focal_px=float(focal_px),
         distance_mm=dist,
         residual=value,
         symmetry_center_px=to_full(sym),
-        evaluations=evals,
+        evaluations=evals + 1,
         null_residual=null,
     )

@@ -1,10 +1,10 @@
 """The spectral profile of a photo: camera RGB binned by the first-order diffraction coordinate.
 
 Each disc pixel sees, to first order, the lamp at wavelength λ₁ = d·|u| scaled by how visible
-the lobe is there (exp(−v²/2σ²)). Binning pixels by λ₁ turns any capture geometry into the
-same three-channel "spectrometer read-out": per bin and channel the least-squares amplitude A
-of I = A·visibility over the bin's pixels, after rejecting outliers (dust, scratches, glare)
-against the bin's median. Saturated pixels are left out and counted, never averaged in.
+the lobe is there (exp(−v²/2σ²)) and by the slowly varying geometry (irradiance × G/w²): its
+amplitude a. Binning pixels by λ₁ turns any capture geometry into the same three-channel
+"spectrometer read-out": per bin and channel the least-squares A of I = A·a over the bin's
+pixels, after rejecting outliers (dust, scratches, glare) against the bin's median. Saturated pixels are left out and counted, never averaged in.
 The operator is linear in the image for fixed weights, so the forward matrix of the features
 (:mod:`.forward`) applies the same weights to the model's basis images.
 """
@@ -24,7 +24,7 @@ FEATURE_LAMBDA_NM: NDArray[np.float64] = np.arange(350.0, 870.0 + 0.5, FEATURE_S
 N_FEATURES = FEATURE_LAMBDA_NM.size
 MIN_VISIBILITY = 0.3
 OUTLIER_MADS = 5.0
-MIN_BIN_WEIGHT = 2.0  # Σ visibility² — about two fully visible pixels
+MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
 
 __all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Profile", "extract_profile"]
 
@@ -33,7 +33,7 @@ __all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Profile", "extract_profile"]
 class Profile:
     lambda_nm: NDArray[np.float64]  # (NB,) bin centres of λ₁
     values: NDArray[np.float64]  # (NB, 3) amplitude per bin and channel (0 where invalid)
-    weight: NDArray[np.float64]  # (NB,) Σ w·visibility² of the pixels used
+    weight: NDArray[np.float64]  # (NB,) Σ w·amplitude² of the pixels used
     saturated_fraction: NDArray[np.float64]  # (NB,) share of the bin's weight that was clipped
     valid: NDArray[np.bool_]  # (NB,)
     noise: NDArray[np.float64]  # (NB, 3) standard error of each value (robust, from residuals)
@@ -134,14 +134,14 @@ def extract_profile(
     sel = np.flatnonzero(keep)
     px = PixelDiffraction(**{k: v[sel] for k, v in pixels.__dict__.items()})
     b = b[sel]
-    vis = px.visibility
+    vis = px.amplitude
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)[px.index]
     sat = np.zeros(px.index.size, bool) if saturated is None else np.asarray(saturated).reshape(-1)[px.index]
     vis2 = vis * vis
     total_w = np.bincount(b, weights=vis2, minlength=N_FEATURES)
     sat_w = np.bincount(b, weights=vis2 * sat, minlength=N_FEATURES)
 
-    # Robust rejection on the luminance-like sum of the visibility-corrected values.
+    # Robust rejection on the luminance-like sum of the amplitude-corrected values.
     ratio = flat.sum(axis=1) / vis
     usable = ~sat & np.all(np.isfinite(flat), axis=1)
     med = _bin_median(b[usable], ratio[usable], N_FEATURES)
@@ -158,7 +158,7 @@ def extract_profile(
     safe = np.where(wv2 > 0, wv2, 1.0)
     values /= safe[:, None]
     values = _unclip(values, flat, b, weight, vis)
-    # Standard error from the weighted residual scatter of I − A·vis.
+    # Standard error from the weighted residual scatter of I − A·a.
     resid = flat - values[b] * vis[:, None]
     var = np.zeros((N_FEATURES, 3))
     for c in range(3):

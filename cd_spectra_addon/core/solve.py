@@ -23,7 +23,7 @@ PRIOR_STRENGTH = 0.3  # weight of the Gaussian prior (1 = fully Bayesian); bench
 PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
 SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
 
-__all__ = ["SMOOTHNESS", "GaussianPrior", "second_difference", "system", "physics_solve", "prior_solve"]
+__all__ = ["SMOOTHNESS", "GaussianPrior", "fused_solve", "second_difference", "system", "physics_solve", "prior_solve"]
 
 
 @dataclass(frozen=True)
@@ -112,5 +112,32 @@ def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPr
     rhs = a.T @ y
     gram[:n, :n] += strength * prec / (s * s)
     rhs[:n] += strength * (prec @ prior.mean) / s
+    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
+    return nnls_normal(gram, rhs)[:n]
+
+
+def fused_solve(profile: Profile, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
+                strength: float, floor: float, gain: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior.
+
+    The network knows what lamps look like where the camera is nearly blind; the photo knows
+    the colour exactly where it sees. Weighting the network's guess by its own uncertainty (not
+    below ``floor``, peak-normalised units) and solving against the features keeps the estimate
+    consistent with the photo — the physics decides where the data is strong.
+    """
+    n = matrix.shape[-1]
+    mean = np.clip(np.asarray(mean, dtype=np.float64), 0.0, None)
+    a, y, scale = system(profile, matrix, gain)
+    if scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
+        return mean
+    pred = a[:, :n] @ mean
+    s = float(pred @ y) / max(float(pred @ pred), 1e-300)
+    if not s > 0:
+        return mean
+    sig = np.maximum(np.asarray(std, dtype=np.float64), floor) * s
+    gram = a.T @ a
+    rhs = a.T @ y
+    gram[:n, :n] += strength * np.diag(1.0 / sig ** 2)
+    rhs[:n] += strength * (mean * s) / sig ** 2
     gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
     return nnls_normal(gram, rhs)[:n]
