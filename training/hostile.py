@@ -239,7 +239,8 @@ def _good(folder: Path, base: Base) -> Path:
 # --- toy models ------------------------------------------------------------------------------
 
 MODEL_VARIANTS = ("garbage-bytes", "missing-metadata", "metadata-not-json", "layout-mismatch",
-                  "metadata-prior-shape", "wrong-inputs", "wrong-output-length", "nan-output")
+                  "metadata-prior-shape", "metadata-fusion-text", "wrong-inputs", "wrong-output-length",
+                  "nan-output")
 
 
 def write_toy_model(folder: Path, variant: str) -> Path:
@@ -280,6 +281,8 @@ def write_toy_model(folder: Path, variant: str) -> Path:
         side.write_text(json.dumps({**meta, "layout_hash": "0123456789abcdef"}), encoding="utf-8")
     elif variant == "metadata-prior-shape":
         side.write_text(json.dumps({**meta, "prior": {"mean": [0.5] * 10, "covariance": [[1.0]]}}), encoding="utf-8")
+    elif variant == "metadata-fusion-text":
+        side.write_text(json.dumps({**meta, "fusion": {"strength": "strong"}}), encoding="utf-8")
     return onnx_path
 
 
@@ -386,7 +389,8 @@ CASES: tuple[Case, ...] = (
             model=v, blender=v in ("garbage-bytes", "layout-mismatch", "wrong-output-length"))
       for v, words in [("garbage-bytes", ("not a valid ONNX model",)), ("missing-metadata", ("metadata", "missing")),
                        ("metadata-not-json", ("metadata", "unreadable")), ("layout-mismatch", ("another input layout",)),
-                       ("metadata-prior-shape", ("prior.mean",)), ("wrong-inputs", ("inputs/outputs",)),
+                       ("metadata-prior-shape", ("prior.mean",)), ("metadata-fusion-text", ("fusion",)),
+                       ("wrong-inputs", ("inputs/outputs",)),
                        ("wrong-output-length", ("inputs/outputs",)), ("nan-output", ()),
                        ]),
     # -- a capture preset file given with --preset (or preset= in the API)

@@ -153,6 +153,13 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
         if array.shape != shape or not np.all(np.isfinite(array)):
             raise ModelError(f"model metadata {side.name}: {'.'.join(keys)} should be {shape} finite numbers; "
                              "the metadata does not match the model — reinstall the add-on or rebuild the model")
+    fusion = meta.get("fusion")
+    if fusion is not None:  # strength and floor of the estimator's final solve
+        values = [fusion.get(k, 0.05) for k in ("strength", "floor")] if isinstance(fusion, dict) else [None]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+                   for v in values):
+            raise ModelError(f"model metadata {side.name}: fusion should hold a non-negative strength and floor, "
+                             f"not {fusion!r} — reinstall the add-on or rebuild the model")
     return meta
 
 
