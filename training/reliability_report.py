@@ -194,7 +194,7 @@ def run_sweeps() -> list[str]:
         "### Disc off the middle of the photo", "",
         "Columns cropped from the left of the 256 px capture move the disc's centre off the image centre "
         f"({px_per_mm:.2f} px per mm in the disc plane). The check warns above 5 mm and reaches its floor "
-        "at 10 mm; before it, every row here had confidence 1.00.", "",
+        "at 15 mm; before it, every row here had confidence 1.00.", "",
         *_sweep(crops, "disc centre off the middle"),
         "", "### Very dark 8-bit photos", "",
         "Exposure × level with the same camera noise (8-bit PNG). The check warns below 1 % of full scale.", "",

@@ -40,14 +40,14 @@ GENERIC = "generic"
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
 MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
 # The inverse assumes the camera looks straight at the disc's centre. With the disc off the
-# image centre (a cropped or re-aimed photo; bench/reliability.md) ≤ 5 mm in the disc plane
-# costs little, 12 mm doubles the physics-only MAE (CIE A) and 16 mm gives 0.2–0.3 — all at
-# confidence 1.0 before this check.
+# image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
+# 400–700 nm (CIE A) goes 0.004 → 0.03 at 4 mm, 0.07 at 8 mm, 0.14 at 16 mm, 0.25 at 24 mm
+# in the disc plane — all at confidence 1.0 before this check.
 CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
-# quantisation: at 0.5 % exposure the physics-only MAE rose from 0.04 to 0.11 (CIE A) and the
-# geometry fit starts to fail (bench/reliability.md).
+# quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
+# 0.3 % the rainbow is no longer found (bench/reliability.md).
 DIM_LEVEL_8BIT = 0.01
 Progress = Callable[[float, str], None]
 
