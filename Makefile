@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver extension clean
+.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver reliability extension clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -49,6 +49,10 @@ bench-render: setup
 
 tune-solver: setup
 	$(PY) -m training.tune_solver --out bench/solver_tuning.md
+
+# Hostile inputs, confidence sweeps, a 1000-estimate soak and forward-model extremes.
+reliability: setup
+	$(PY) -m training.reliability_report --out bench/reliability.md
 
 # Blender extension zips (one per platform) in dist/, validated and smoke-tested; wheels are
 # downloaded from PyPI into build/wheels/ (git-ignored) on first use.

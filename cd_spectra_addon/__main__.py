@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import json
 import os
 import sys
@@ -53,27 +54,55 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _check_output(path: Path | None, suffix: str | None = None) -> None:
+    """Refuse an output path that cannot be written before any photo is estimated."""
     if path is None:
         return
     if suffix and path.suffix.lower() != suffix:
         raise UsageError(f"{path} should end in {suffix}")
-    if not path.parent.resolve().is_dir():
-        raise UsageError(f"folder {path.parent} does not exist")
-    if path.is_dir():
-        raise UsageError(f"{path} is a folder")
+    try:
+        if not path.parent.resolve().is_dir():
+            raise UsageError(f"folder {path.parent} does not exist")
+        if path.is_dir():
+            raise UsageError(f"{path} is a folder")
+        if len(os.fsencode(path.name)) > _name_max(path.parent):
+            raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG))
+        _temp_beside(path).unlink()  # the same kind of temporary file the real write will use
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
+def _name_max(folder: Path) -> int:
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (AttributeError, OSError, ValueError):  # no pathconf (Windows) or no answer
+        return 255
+
+
+def _temp_beside(target: Path) -> Path:
+    """A new empty file in ``target``'s folder, named so it fits wherever ``target``'s name fits."""
+    fd, name = tempfile.mkstemp(prefix=f".{target.name[:32]}.", suffix=target.suffix[:16], dir=target.parent)
+    os.close(fd)
+    return Path(name)
 
 
 @contextlib.contextmanager
 def _atomic_path(target: Path) -> Iterator[Path]:
     """A temporary path next to ``target``, renamed onto it only if the block succeeds."""
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
-    tmp = Path(name)
+    tmp = _temp_beside(target)
     try:
         yield tmp
         os.replace(tmp, target)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _writing(path: Path) -> Iterator[None]:
+    """An OSError while writing ``path`` (the disk filled up since the check, ...) is one error line."""
+    try:
+        yield
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc.strerror or exc}") from exc
 
 
 @contextlib.contextmanager
@@ -101,13 +130,18 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
         raise UsageError(f"this build has no estimator ({exc})") from exc
     results = []
     for photo in args.photos:
-        if not photo.is_file():
-            raise UsageError(f"{photo}: no such file")
+        try:
+            photo.stat()
+        except FileNotFoundError:
+            raise UsageError(f"{photo}: no such file") from None
+        except OSError as exc:  # e.g. a name too long for the file system
+            raise UsageError(f"{photo}: cannot access the file ({exc.strerror or exc})") from None
         try:
             estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
                                       calibration=args.calibration)
         except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
-            raise UsageError(f"{photo}: {exc}") from exc
+            message = str(exc)  # the loader's messages already start with the path: say it once
+            raise UsageError(message if message.startswith(str(photo)) else f"{photo}: {message}") from exc
         results.append(estimate.to_json())
     return results
 
@@ -185,8 +219,11 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
                 state.store_estimate(settings, data)
                 settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
                 settings.photo_path = str(data.get("source") or "")
-            with _atomic_path(path) as tmp:
-                bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+            try:
+                with _atomic_path(path) as tmp:
+                    bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+            except RuntimeError as exc:  # bpy reports a failed save as RuntimeError
+                raise UsageError(f"cannot write {path}: {' '.join(str(exc).split())}") from exc
         finally:
             properties.unregister()
 
@@ -204,11 +241,13 @@ def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print
     finally:
         unregister_decoder(_blender_fallback_decoder)
     if args.blend is not None:
-        write_blend(results, args.blend)
+        with _writing(args.blend):
+            write_blend(results, args.blend)
     if args.plot is not None:
-        write_plot(results, args.plot)
+        with _writing(args.plot):
+            write_plot(results, args.plot)
     if args.json is not None:
-        with _atomic_path(args.json) as tmp:
+        with _writing(args.json), _atomic_path(args.json) as tmp:
             tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     for data in results:
         out(json.dumps(data))

@@ -141,6 +141,24 @@ def scene_snapshot() -> dict[str, Any]:
     }
 
 
+def datablock_snapshot() -> dict[str, list[str]]:
+    """Every data-block in the file by collection (objects, lights, node groups, images, ...):
+    a failed operator must leave this exactly as it was, and a repeated one must not grow it."""
+    import bpy
+
+    out: dict[str, list[str]] = {}
+    for name in dir(bpy.data):
+        if name.startswith("_"):
+            continue
+        try:
+            value = getattr(bpy.data, name)
+        except (AttributeError, RuntimeError):
+            continue
+        if isinstance(value, bpy.types.bpy_prop_collection) and name != "window_managers":
+            out[name] = sorted(getattr(item, "name_full", getattr(item, "name", "")) for item in value)
+    return out
+
+
 def run_blender_script(script: str, *args: str, timeout: float = 120.0) -> subprocess.CompletedProcess[str]:
     """Run Python with the bpy wheel in a fresh process (for what must not share this one)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}

@@ -74,8 +74,14 @@ def apply_spd(light: bpy.types.Light, spd: Sequence[float], info: SpectralColour
     """
     check_colour(info)
     meta = dict(meta or {})
+    group_existed = find_node_group(spd_hash(spd)) is not None
     group = ensure_node_group(spd, info, meta)
-    _wire(light, group)
+    try:
+        _wire(light, group)
+    except Exception:
+        if not group_existed:  # made for this light only: do not leave it behind
+            bpy.data.node_groups.remove(group)
+        raise
     light.color = info.rgb
     for key in [k for k in light.keys() if k.startswith(KEY)]:
         del light[key]

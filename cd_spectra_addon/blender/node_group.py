@@ -197,12 +197,19 @@ def ensure_node_group(spd: Sequence[float], info: SpectralColour,
     meta = dict(meta or {})
     digest = spd_hash(spd)
     group = find_node_group(digest)
+    created = group is None
     if group is None:
         group = bpy.data.node_groups.new(group_name(spd, meta), "ShaderNodeTree")
-        _build(group)
-    elif not _is_intact(group):
-        _build(group)
-    _fill(group, spd, info, meta)
+    try:
+        if created or not _is_intact(group):
+            _build(group)
+        _fill(group, spd, info, meta)
+    except Exception:
+        # A new group that failed half-way has no hash yet, so no caller could find it to
+        # clean up: remove it here rather than leave a half-made group in the file.
+        if created:
+            bpy.data.node_groups.remove(group)
+        raise
     return group
 
 

@@ -228,7 +228,7 @@ def _from_dict(data: dict[str, Any]) -> Preset:
     if "position_mm" in light_data:
         light_data["position_mm"] = tuple(float(v) for v in light_data["position_mm"])
     light = Light(**light_data)
-    return Preset(
+    preset = Preset(
         name=str(data["name"]),
         description=str(data.get("description", "")),
         disc=disc,
@@ -236,6 +236,44 @@ def _from_dict(data: dict[str, Any]) -> Preset:
         light=light,
         samples=int(data.get("samples", 16)),
     )
+    _validate(preset)
+    return preset
+
+
+def _number(where: str, value: Any, low: float, low_open: bool = False, integer: bool = False) -> None:
+    """A finite number ≥ low (> low if ``low_open``), an integer where asked; else ValueError."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    ok = ok and (value > low if low_open else value >= low) and (not integer or float(value).is_integer())
+    if not ok:
+        kind = "a whole number" if integer else "a number"
+        raise ValueError(f"{where} must be {kind} {'>' if low_open else '≥'} {low:g}, not {value!r}")
+
+
+def _validate(preset: Preset) -> None:
+    """Refuse a preset file's impossible values here, with the field's name, instead of a NaN
+    image, a misleading 'no rainbow found' or a TypeError deep inside the estimate."""
+    d, c, light = preset.disc, preset.camera, preset.light
+    for name in ("pitch_um", "rim_radius_mm", "grating_r_max_mm"):
+        _number(f"disc.{name}", getattr(d, name), 0.0, low_open=True)
+    for name in ("groove_height_um", "hole_radius_mm", "grating_r_min_mm", "diffuse_albedo", "duty"):
+        _number(f"disc.{name}", getattr(d, name), 0.0)
+    _number("disc.medium_index", d.medium_index, 1.0)
+    _number("disc.max_order", d.max_order, 0.0, integer=True)
+    if d.profile not in ("sinusoidal", "rectangular"):
+        raise ValueError(f"disc.profile must be 'sinusoidal' or 'rectangular', not {d.profile!r}")
+    if d.duty > 1.0 or d.hole_radius_mm >= d.rim_radius_mm or d.grating_r_min_mm >= d.grating_r_max_mm:
+        raise ValueError("disc: need duty ≤ 1, hole_radius_mm < rim_radius_mm and "
+                         "grating_r_min_mm < grating_r_max_mm")
+    for name in ("distance_mm", "focal_length_mm", "sensor_width_mm"):
+        _number(f"camera.{name}", getattr(c, name), 0.0, low_open=True)
+    for i, value in enumerate(c.image_size_px):
+        _number(f"camera.image_size_px[{i}]", value, 1.0, integer=True)
+    if len(c.image_size_px) != 2 or len(light.position_mm) != 3:
+        raise ValueError("camera.image_size_px needs 2 values and light.position_mm 3")
+    for i, value in enumerate(light.position_mm):
+        _number(f"light.position_mm[{i}]", value, -math.inf)
+    _number("light.lobe_sigma", light.lobe_sigma, 0.0, low_open=True)
+    _number("light.intensity", light.intensity, 0.0)
 
 
 def load_preset(name_or_path: str | Path) -> Preset:
@@ -250,5 +288,5 @@ def load_preset(name_or_path: str | Path) -> Preset:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         return _from_dict(data)
-    except (json.JSONDecodeError, TypeError, KeyError) as exc:
+    except (ValueError, TypeError, KeyError) as exc:  # JSONDecodeError is a ValueError
         raise CDSpectraError(f"preset file {path} is not a valid preset: {exc}") from exc

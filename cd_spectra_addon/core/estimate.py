@@ -38,6 +38,17 @@ from .spectral_grid import WAVELENGTHS_NM
 MAX_SIDE = 1024
 GENERIC = "generic"
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
+MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
+# The inverse assumes the camera looks straight at the disc's centre. With the disc off the
+# image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
+# 400–700 nm (CIE A) goes 0.004 → 0.03 at 4 mm, 0.07 at 8 mm, 0.14 at 16 mm, 0.25 at 24 mm
+# in the disc plane — all at confidence 1.0 before this check.
+CENTRE_OFFSET_OK_MM = 5.0
+CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
+# An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
+# quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
+# 0.3 % the rainbow is no longer found (bench/reliability.md).
+DIM_LEVEL_8BIT = 0.01
 Progress = Callable[[float, str], None]
 
 __all__ = ["MAX_SIDE", "GENERIC", "focal_px_for", "estimate_image", "estimate_photo", "camera_for"]
@@ -97,6 +108,17 @@ def _calibrated(profile: Profile, calibration: Calibration | None) -> Profile:
     return replace(profile, values=profile.values / gains, noise=profile.noise / gains)
 
 
+def _bin_share(profile: Profile, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Per λ₁ bin, the share of the profile's pixel weight (Σ visibility²) that ``mask`` flags."""
+    px = profile.pixels
+    flagged = np.asarray(mask).reshape(-1)[px.index]
+    vis2 = px.visibility ** 2
+    n = profile.lambda_nm.size
+    total = np.bincount(profile.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
+    hit = np.bincount(profile.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
+    return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
+
+
 def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
                 image: LinearImage | None, generic: bool, focal_source: str) -> tuple[float, list[str], dict]:
     """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
@@ -105,7 +127,10 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     lam = profile.lambda_nm
     core = (lam >= 400) & (lam <= 700)
     coverage = float(np.mean(profile.valid[core]))
-    sat_core = float(np.mean(profile.saturated_fraction[core] > 0.05))
+    # The profile leaves out clipped and NaN/Inf pixels alike; only clipping is over-exposure.
+    clipped = profile.saturated_fraction if image is None or not np.any(image.invalid) else \
+        _bin_share(profile, image.saturated)
+    sat_core = float(np.mean(clipped[core] > 0.05))
     # Re-render the profile from the estimate and compare with the photo.
     valid = profile.valid
     pred = np.einsum("bcl,l->bc", matrix, spd)
@@ -125,6 +150,28 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — the disc may be cut off "
                         "by the frame, or the lamp and camera are too far off the disc's axis")
         score *= max(0.1, coverage)
+    if image is not None and np.any(image.invalid):
+        bad = float(np.mean(_bin_share(profile, image.invalid)[core]))
+        stats["invalid_share"] = bad
+        warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
+                        "check the raw conversion or the EXR export")
+        score *= max(0.2, 1.0 - 2.0 * bad)
+    # A very dark 8-bit rainbow first: it also inflates the geometry and profile residuals below.
+    peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
+    if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
+        warnings.append(f"the rainbow is very dark (its brightest part is {100 * peak:.1f}% of full scale), so 8-bit "
+                        "rounding limits the accuracy — use a longer exposure or save 16-bit/raw")
+        score *= max(0.2, peak / DIM_LEVEL_8BIT)
+    fit = analysis.fit
+    width, height = analysis.scene.preset.camera.image_size_px
+    off_px = math.hypot(fit.center_px[0] - (height - 1) / 2.0, fit.center_px[1] - (width - 1) / 2.0)
+    off_mm = off_px * fit.distance_mm / fit.focal_px
+    stats["disc_offset_mm"] = off_mm
+    if off_mm > CENTRE_OFFSET_OK_MM:
+        warnings.append(f"the disc is not centred: its centre is {off_mm:.0f} mm off the middle of the photo — "
+                        "aim the camera straight down at the disc's centre, or crop the photo so the disc "
+                        "is in the middle")
+        score *= max(0.2, 1.0 - (off_mm - CENTRE_OFFSET_OK_MM) / CENTRE_OFFSET_SPAN_MM)
     if analysis.fit.residual > 0.15:
         warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "
                         "lamp are on the disc's axis and the preset matches the capture")
@@ -132,7 +179,6 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     if residual > 0.05:
         warnings.append("the recovered spectrum does not reproduce the photo well — treat it as approximate")
         score *= max(0.2, 1.0 - 5.0 * (residual - 0.05))
-    peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
     noise = float(np.median(profile.noise[valid])) if np.any(valid) else 1.0
     snr = peak / max(noise, 1e-12)
     stats["snr"] = snr
@@ -175,6 +221,11 @@ def estimate_image(
         raise CDSpectraError(f"unknown method {method!r}")
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
+    name = Path(image.path).name or "the photo"
+    clipped = float(np.mean(image.saturated))
+    if clipped > MAX_SATURATED_SHARE:  # like the loader's errors: the path first
+        raise PhotoError(f"{image.path or 'the photo'}: over-exposed, {100 * clipped:.0f}% of the photo is clipped "
+                         "at full scale — use a much shorter exposure (or dim the lamp)")
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
     cam, generic = camera_for(camera, mdl)
@@ -190,7 +241,12 @@ def estimate_image(
     analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
     profile = _calibrated(analysis.profile, cal)
     if int(np.sum(profile.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
-        raise NoDiscError(f"no CD rainbow found in {Path(image.path).name or 'the photo'}: photograph the disc "
+        hint = ""
+        if clipped > 0.2:
+            hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
+        elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
+            hint = " (the photo is very dark: try a longer exposure)"
+        raise NoDiscError(f"no CD rainbow found in {name}{hint}: photograph the disc "
                           "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
@@ -210,14 +266,18 @@ def estimate_image(
         spd = fused_solve(profile, matrix, net, std, strength, floor) if strength > 0 else net
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
-    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0)
-    if spd.max() <= 0:
+    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
+    unusable = not spd.max() > 0  # the network returned nothing usable (all zero, negative or NaN)
+    if unusable:
         spd = e_phys / e_phys.max()
     spd = spd / spd.max()
     std = np.nan_to_num(std, nan=0.25, posinf=1.0)
     t3 = time.perf_counter()
     report(0.9, "Colour")
     confidence, warnings, stats = _confidence(profile, matrix, spd, analysis, image, generic, source)
+    if unusable and mdl is not None and method == "model":
+        warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
+        confidence *= 0.5
     xyz = colour.spd_to_xyz(spd)
     xy = colour.xyz_to_xy(xyz)
     cct, duv = colour.cct_duv(xy)

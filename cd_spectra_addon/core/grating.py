@@ -421,7 +421,8 @@ def band_radiance_sparse(
     for m in range(1, optics.disc.max_order + 1):
         s = sigma * d_nm / m
         reach = _LOBE_REACH * s + half_width_nm
-        n_side = int(np.ceil(reach / step))
+        n_side = float(np.ceil(reach / step))  # float: a huge lobe must not overflow int64
+        width = int(min(2 * n_side + 1, n_bands))  # bands in reach that can be on the grid
         for order in (-m, m):
             lam_star = d_nm * frame.u / order
             live = np.flatnonzero(tracks & (lam_star > lam[0] - reach) & (lam_star < lam[-1] + reach))
@@ -429,9 +430,12 @@ def band_radiance_sparse(
                 continue
             sub = _take(frame, live)
             nearest = np.rint((lam_star[live] - lam[0]) / step).astype(np.int64)
-            shifts = np.arange(-n_side, n_side + 1)
-            band = nearest[:, None] + shifts[None, :]
-            ok = (band >= 0) & (band < n_bands)
+            # The in-grid bands within ±n_side of each lobe: never more than the grid itself,
+            # however wide the lobe (an unbounded range once asked numpy for 1e51 elements).
+            first = np.maximum(nearest - n_side, 0.0).astype(np.int64)
+            last = np.minimum(nearest + n_side, n_bands - 1.0)
+            band = first[:, None] + np.arange(width)[None, :]
+            ok = band <= last[:, None]
             rows, cols = np.nonzero(ok)
             sel = _take(sub, rows)
             vals = diffracted_order(sel, optics, order, lam[band[rows, cols]], half_width_nm, lo_nm, hi_nm)

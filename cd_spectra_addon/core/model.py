@@ -62,25 +62,29 @@ def model_inputs(
     geometry_residual: float,
 ) -> NDArray[np.float32]:
     """The input vector for one photo (float32, INPUT_SIZE)."""
-    values = np.where(profile.valid[:, None], profile.values, 0.0)
-    peak = float(np.max(values)) if np.any(profile.valid) else 0.0
-    scale = peak if peak > 0 else 1.0
-    noise = np.mean(profile.noise, axis=1)
-    snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
-    phys_peak = float(np.max(physics_spd))
-    physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
-    parts = [
-        (values / scale).ravel(),
-        profile.valid.astype(np.float64),
-        snr,
-        profile.saturated_fraction,
-        np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
-        physics,
-        np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),
-                  float(np.clip(geometry_residual, 0.0, 1.0))]),
-    ]
-    out = np.concatenate(parts).astype(np.float32)
-    return np.nan_to_num(out, nan=0.0, posinf=0.0, neginf=0.0)
+    # Absurd profiles (a tiny peak beside huge invalid values) overflow here; the result is
+    # cleaned below, so numpy's warnings would only be noise in Blender's console.
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        values = np.where(profile.valid[:, None], profile.values, 0.0)
+        peak = float(np.max(values)) if np.any(profile.valid) else 0.0
+        scale = peak if peak > 0 else 1.0
+        noise = np.mean(profile.noise, axis=1)
+        snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
+        phys_peak = float(np.max(physics_spd))
+        physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
+        parts = [
+            (values / scale).ravel(),
+            profile.valid.astype(np.float64),
+            snr,
+            profile.saturated_fraction,
+            np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
+            physics,
+            np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),
+                      float(np.clip(geometry_residual, 0.0, 1.0))]),
+        ]
+    out = np.nan_to_num(np.concatenate(parts), nan=0.0, posinf=0.0, neginf=0.0)
+    limit = float(np.finfo(np.float32).max)
+    return np.where(np.abs(out) <= limit, out, 0.0).astype(np.float32)  # as before, without the overflow warning
 
 
 @dataclass
@@ -102,7 +106,13 @@ class SpectralModel:
         x = np.atleast_2d(x)
         if x.shape[1] != INPUT_SIZE:
             raise ModelError(f"model input has {x.shape[1]} values, expected {INPUT_SIZE}")
-        spd, log_std = self._session.run(["spd", "log_std"], {"inputs": x})
+        try:
+            spd, log_std = self._session.run(["spd", "log_std"], {"inputs": x})
+        except Exception as exc:  # onnxruntime's own exception types (a graph that fails at run time)
+            raise ModelError(f"model {self.path.name} failed to run: {exc}") from exc
+        if np.shape(spd) != (x.shape[0], N_BANDS) or np.shape(log_std) != (x.shape[0], N_BANDS):
+            raise ModelError(f"model {self.path.name} returned {np.shape(spd)} values for {x.shape[0]} input(s); "
+                             f"expected {N_BANDS} per input (380–780 nm in 5 nm steps)")
         spd = np.nan_to_num(np.asarray(spd, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0)
         std = np.exp(np.clip(np.asarray(log_std, dtype=np.float64), -12.0, 3.0))
         return (spd[0], std[0]) if single else (spd, std)
@@ -126,7 +136,44 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
         raise ModelError(
             f"model {onnx_path.name} was built for another input layout "
             f"({meta.get('layout_hash')!r}, this add-on needs {layout_hash()!r}); reinstall the add-on or rebuild the model")
+    # The arrays the estimator uses straight from the metadata: a wrong shape here would
+    # otherwise surface as a numpy broadcasting error deep inside the solve.
+    expected = {("prior", "mean"): (N_BANDS,), ("prior", "covariance"): (N_BANDS, N_BANDS),
+                ("generic_camera",): (N_BANDS, 3)}
+    for keys, shape in expected.items():
+        value: Any = meta
+        for key in keys:
+            value = value.get(key) if isinstance(value, dict) else None
+        if value is None and keys[0] not in meta:
+            continue  # optional: without it the estimator does without the prior / generic camera
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            array = np.zeros(0)
+        if array.shape != shape or not np.all(np.isfinite(array)):
+            raise ModelError(f"model metadata {side.name}: {'.'.join(keys)} should be {shape} finite numbers; "
+                             "the metadata does not match the model — reinstall the add-on or rebuild the model")
+    fusion = meta.get("fusion")
+    if fusion is not None:  # strength and floor of the estimator's final solve
+        values = [fusion.get(k, 0.05) for k in ("strength", "floor")] if isinstance(fusion, dict) else [None]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+                   for v in values):
+            raise ModelError(f"model metadata {side.name}: fusion should hold a non-negative strength and floor, "
+                             f"not {fusion!r} — reinstall the add-on or rebuild the model")
     return meta
+
+
+def _signature_ok(session: Any) -> bool:
+    """One input "inputs" (…, INPUT_SIZE) and outputs "spd", "log_std" whose length, where the
+    file fixes it, is N_BANDS (a dynamic length is checked on every predict)."""
+    inputs = {i.name: list(i.shape or []) for i in session.get_inputs()}
+    outputs = {o.name: list(o.shape or []) for o in session.get_outputs()}
+    if set(inputs) != {"inputs"} or not inputs["inputs"] or inputs["inputs"][-1] != INPUT_SIZE:
+        return False
+    if not {"spd", "log_std"} <= set(outputs):
+        return False
+    return all(not outputs[k] or not isinstance(outputs[k][-1], int) or outputs[k][-1] == N_BANDS
+               for k in ("spd", "log_std"))
 
 
 def load_model(path: str | Path | None = None) -> SpectralModel:
@@ -153,9 +200,7 @@ def load_model(path: str | Path | None = None) -> SpectralModel:
                                            providers=["CPUExecutionProvider"])
         except Exception as exc:  # onnxruntime raises its own exception types for bad files
             raise ModelError(f"model file {onnx_path.name} is not a valid ONNX model: {exc}") from exc
-        inputs = {i.name: i.shape for i in session.get_inputs()}
-        outputs = {o.name for o in session.get_outputs()}
-        if set(inputs) != {"inputs"} or inputs["inputs"][-1] != INPUT_SIZE or not {"spd", "log_std"} <= outputs:
+        if not _signature_ok(session):
             raise ModelError(f"model file {onnx_path.name} does not have the inputs/outputs this add-on expects")
         model = SpectralModel(path=onnx_path, metadata=meta, _session=session)
         _CACHE[onnx_path] = model

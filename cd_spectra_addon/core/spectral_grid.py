@@ -48,6 +48,9 @@ def hat_integrals(
     return np.maximum(primitive(b) - primitive(a), 0.0)
 
 
+MIN_FINE_STEP_NM = 0.01  # finer structure than this is averaged by the linear interpolant
+
+
 def resample_to_grid(
     wavelengths_nm: ArrayLike,
     values: ArrayLike,
@@ -79,8 +82,9 @@ def resample_to_grid(
         # As coarse as the grid or coarser: the piecewise-linear curve itself.
         out = np.stack([np.interp(grid, wl, row, left=0.0, right=0.0) for row in flat])
         return out.reshape(val.shape[:-1] + (grid.size,))
-    # Finer: dense 0.1 nm resampling, then hat-weighted average per grid sample.
-    fine_step = min(0.1, float(np.min(np.diff(wl))) / 2.0)
+    # Finer: dense 0.1 nm resampling, then hat-weighted average per grid sample. The step never
+    # goes below MIN_FINE_STEP_NM: two samples 1e-9 nm apart once asked for a 6 TiB array.
+    fine_step = max(min(0.1, float(np.min(np.diff(wl))) / 2.0), MIN_FINE_STEP_NM)
     fine = np.arange(grid[0] - step, grid[-1] + step + fine_step / 2, fine_step)
     dense = np.empty((flat.shape[0], fine.size))
     for k in range(flat.shape[0]):
