@@ -83,7 +83,7 @@ def test_photos_are_linear_in_the_spd(default_cube, rng):
     s1, s2 = rng.random(81), rng.random(81) * (WAVELENGTHS_NM > 600)
     both = photo.linear_photo(cube, s1 + s2, cam)
     summed = photo.linear_photo(cube, s1, cam) + photo.linear_photo(cube, s2, cam)
-    assert np.allclose(both, summed, rtol=1e-10, atol=1e-12 * both.max())
+    assert np.allclose(both, summed, rtol=1e-5, atol=1e-6 * both.max())  # float32 synthesis
 
 
 def test_zero_power_bands_give_black_rings_and_no_nan(default_cube):
