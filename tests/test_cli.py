@@ -175,3 +175,29 @@ def test_blend_holds_the_matched_lights(tmp_path: Path) -> None:
         assert json.loads(stored["estimate_json"])["source"] == photos[-1]
     finally:
         bpy.ops.wm.read_homefile(app_template="")
+
+
+def test_plot_draws_every_spd_into_a_png(tmp_path: Path) -> None:
+    photos = _photos(tmp_path, "a.jpg", "bb.jpg")
+    out = tmp_path / "spd.png"
+    proc = run_cli("estimate", *photos, "--plot", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "BPY_NOT_LOADED" in proc.stderr  # drawing needs matplotlib, not Blender
+
+
+def test_demo_sample_photo_estimates_its_lamp() -> None:
+    """`make demo`'s photo (CIE FL11 through the forward model) comes back as FL11."""
+    from cd_spectra_addon.core.colour import compare_spds
+    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.model import MODEL_DIR
+    from cd_spectra_addon.core.spectra_files import read_spectra_csv
+
+    if not (MODEL_DIR / "cd_spectra.onnx").is_file():
+        pytest.skip("no shipped model")
+    table = read_spectra_csv(ROOT / "samples" / "demo_lamps.csv")
+    truth = table.on_grid()[table.names.index("CIE_FL11")]
+    result = estimate_photo(ROOT / "samples" / "cd_photo.jpg")
+    metrics = compare_spds(result.spd, truth)
+    assert metrics["delta_uv_prime"] < 0.003 and metrics["pearson_r"] > 0.95
+    assert result.cct_k is not None and abs(result.cct_k - 4000) < 250

@@ -56,6 +56,15 @@ def last_estimate(settings: Any) -> dict[str, Any] | None:
     return data
 
 
+def has_estimate(operator: Any, context: Any) -> bool:
+    """Operator poll shared by everything that needs a result; says why it is greyed out."""
+    settings = getattr(context.scene, "cd_spectra", None)
+    if settings is None or last_estimate(settings) is None:
+        operator.poll_message_set("Estimate an SPD first")
+        return False
+    return True
+
+
 def store_estimate(settings: Any, data: dict[str, Any]) -> None:
     spd = valid_spd(data["spd"])
     if spd is None:

@@ -169,8 +169,8 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     stats["disc_offset_mm"] = off_mm
     if off_mm > CENTRE_OFFSET_OK_MM:
         warnings.append(f"the disc is not centred: its centre is {off_mm:.0f} mm off the middle of the photo — "
-                        "aim the camera straight down at the disc's centre, or crop the photo so the disc "
-                        "is in the middle")
+                        "aim the camera straight down at the disc's centre (a cropped photo also moves it: "
+                        "use the whole frame)")
         score *= max(0.2, 1.0 - (off_mm - CENTRE_OFFSET_OK_MM) / CENTRE_OFFSET_SPAN_MM)
     if analysis.fit.residual > 0.15:
         warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "

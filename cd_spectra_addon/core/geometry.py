@@ -308,8 +308,9 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     x, value, more = _nelder_mead(cost, start[:4], steps, max_evals)
     evals += more
     # Restart from the best point with a fresh simplex: Nelder–Mead stalls in the narrow valley
-    # where moving both centres together along a streak barely changes the fit.
-    for shrink in (1.0, 0.3):
+    # where moving both centres together along a streak barely changes the fit. Full rings have
+    # no such valley (and the full-resolution refinement is for streaks anyway).
+    for shrink in (1.0, 0.3) if strength >= 0.05 else ():
         x, value, more = _nelder_mead(cost, x, steps * shrink, max_evals // 2)
         evals += more
     log_sigma = 0.0

@@ -26,9 +26,7 @@ class CDSPECTRA_OT_apply_to_light(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context: bpy.types.Context) -> bool:
-        settings = getattr(context.scene, "cd_spectra", None)
-        if settings is None or state.last_estimate(settings) is None:
-            cls.poll_message_set("Estimate an SPD first")
+        if not state.has_estimate(cls, context):
             return False
         if not _selected_lights(context):
             cls.poll_message_set("Select a light first")

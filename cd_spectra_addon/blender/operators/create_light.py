@@ -24,11 +24,7 @@ class CDSPECTRA_OT_create_light(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context: bpy.types.Context) -> bool:
-        settings = getattr(context.scene, "cd_spectra", None)
-        if settings is None or state.last_estimate(settings) is None:
-            cls.poll_message_set("Estimate an SPD first")
-            return False
-        return True
+        return state.has_estimate(cls, context)
 
     def invoke(self, context: bpy.types.Context, event: Any) -> set[str]:
         if not self.properties.is_property_set("light_type"):

@@ -33,11 +33,7 @@ class CDSPECTRA_OT_export_spd(bpy.types.Operator, ExportHelper):
 
     @classmethod
     def poll(cls, context: bpy.types.Context) -> bool:
-        settings = getattr(context.scene, "cd_spectra", None)
-        if settings is None or state.last_estimate(settings) is None:
-            cls.poll_message_set("Estimate an SPD first")
-            return False
-        return True
+        return state.has_estimate(cls, context)
 
     def _format(self):
         return next((f for f in export_formats() if f.identifier == self.file_format), None)
