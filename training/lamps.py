@@ -40,7 +40,7 @@ def lspdd_lamps(path: Path = LSPDD_FILE) -> list[Lamp]:
         reader = csv.reader(handle)
         header = next(reader)
         data = np.array([[float(v) for v in row] for row in reader])
-    spds = peak_normalise(resample_to_grid(data[:, 0], data[:, 1:].T))
+    spds = peak_normalise(np.clip(resample_to_grid(data[:, 0], data[:, 1:].T), 0.0, None))  # meter dark noise
     lamps = []
     for name, spd in zip(header[1:], spds):
         category = name.split("|")[1] if "|" in name else "other"
