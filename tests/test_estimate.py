@@ -139,3 +139,15 @@ def test_unknown_calibration_and_camera_are_specific_errors(tmp_path, capture):
         estimate_photo(path, model=None, calibration=str(tmp_path / "missing.json"))
     with pytest.raises(CDSpectraError, match="unknown camera"):
         estimate_photo(path, model=None, camera="Leica_M11")
+
+
+def test_calibrated_photos_use_their_own_fusion_strength():
+    from types import SimpleNamespace
+
+    from cd_spectra_addon.core.estimate import _fusion
+
+    model = SimpleNamespace(metadata={"fusion": {"strength": 0.3, "floor": 0.05, "calibrated_strength": 3.0,
+                                                 "calibrated_floor": 0.02}})
+    assert _fusion(model) == (0.3, 0.05)
+    assert _fusion(model, calibrated=True) == (3.0, 0.02)
+    assert _fusion(SimpleNamespace(metadata={}), calibrated=True) == (0.0, 0.05)  # no fusion: the network as is

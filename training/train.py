@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from cd_spectra_addon import __version__
-from cd_spectra_addon.core import geometry, profile, solve
+from cd_spectra_addon.core import colour, geometry, profile, solve
 from cd_spectra_addon.core.capture import preset_names, PRESET_DIR
 from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
@@ -33,7 +33,7 @@ from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 from .basis import REPO
 from .dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
 from .spd_prior import gaussian_prior
-from .tune_fusion import report, tune
+from .tune_fusion import fusion_metadata, report, tune
 
 BAND_WEIGHT = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 1.0, 0.5)
 
@@ -77,12 +77,33 @@ def _slice(name: str) -> tuple[int, int]:
     raise KeyError(name)
 
 
-def loss_fn(spd: torch.Tensor, log_std: torch.Tensor, target: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
-    """Band-weighted L1 plus a Laplace likelihood that calibrates the uncertainty."""
+COLOUR_WEIGHT = 10.0  # Δu'v' 0.001 (just visible) costs as much as an MAE of 0.01
+
+
+def _cmf() -> torch.Tensor:
+    """CIE 1931 CMFs integrated over each band's hat, (81, 3): the colour the SPD makes."""
+    return torch.from_numpy(np.stack([colour.spd_to_xyz(row) for row in np.eye(len(WAVELENGTHS_NM))]).astype(
+        np.float32))
+
+
+def _uv_prime(spd: torch.Tensor, cmf: torch.Tensor) -> torch.Tensor:
+    xyz = spd @ cmf
+    d = (xyz[:, 0] + 15.0 * xyz[:, 1] + 3.0 * xyz[:, 2]).clamp_min(1e-9)
+    return torch.stack([4.0 * xyz[:, 0] / d, 9.0 * xyz[:, 1] / d], dim=1)
+
+
+def loss_fn(spd: torch.Tensor, log_std: torch.Tensor, target: torch.Tensor, weight: torch.Tensor,
+            cmf: torch.Tensor | None = None) -> torch.Tensor:
+    """Band-weighted L1, the colour the SPD makes (u'v'), and a Laplace likelihood that
+    calibrates the uncertainty. Without the colour term the network trades colour for shape:
+    a few small errors that all lean the same way move the light's colour visibly."""
     err = (spd - target).abs()
     l1 = (err * weight).mean()
     nll = ((err.detach() / log_std.exp() + log_std) * weight).mean()
-    return l1 + 0.05 * nll
+    loss = l1 + 0.05 * nll
+    if cmf is not None:
+        loss = loss + COLOUR_WEIGHT * (_uv_prime(spd, cmf) - _uv_prime(target, cmf)).abs().sum(dim=1).mean()
+    return loss
 
 
 def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int, ...] = (512, 512, 256),
@@ -100,6 +121,7 @@ def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int
     steps = epochs * max(1, len(tr) // batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=lr, total_steps=steps, pct_start=0.1)
     weight = torch.from_numpy(BAND_WEIGHT.astype(np.float32))
+    cmf = _cmf()
     gen = torch.Generator().manual_seed(seed)
     history = []
     start = time.perf_counter()
@@ -109,7 +131,7 @@ def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int
         for i in range(0, len(perm) - batch + 1, batch):
             idx = perm[i:i + batch]
             spd, log_std = model(x[idx])
-            loss = loss_fn(spd, log_std, y[idx], weight)
+            loss = loss_fn(spd, log_std, y[idx], weight, cmf)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -119,17 +141,18 @@ def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int
             with torch.no_grad():
                 spd, _ = model(x[val])
                 mae = float((spd - y[val]).abs().mean())
-            history.append({"epoch": epoch + 1, "val_mae": mae})
-            log(f"epoch {epoch + 1}: synthetic validation MAE {mae:.4f}")
+                duv = float((_uv_prime(spd, cmf) - _uv_prime(y[val], cmf)).norm(dim=1).mean())
+            history.append({"epoch": epoch + 1, "val_mae": mae, "val_duv": duv})
+            log(f"epoch {epoch + 1}: synthetic validation MAE {mae:.4f}, Δu'v' {duv:.4f}")
     info = {"epochs": epochs, "train_samples": int(len(tr)), "val_samples": int(n_val),
             "seconds": time.perf_counter() - start, "history": history, "hidden": list(hidden),
-            "val_mae": history[-1]["val_mae"]}
+            "val_mae": history[-1]["val_mae"], "val_duv": history[-1]["val_duv"]}
     return model.eval(), info
 
 
-def export_onnx(model: SpectralNet, path: Path, metadata: dict[str, Any]) -> float:
+def export_onnx(model: SpectralNet, path: Path, metadata: dict[str, Any], probe: np.ndarray) -> float:
     """Write the ONNX file (opset 17, metadata in metadata_props) and return the max |Δ| between
-    onnxruntime and torch on random and real-looking inputs."""
+    onnxruntime and torch on ``probe`` (real model inputs from the dataset)."""
     import onnx
     import onnxruntime as ort
 
@@ -148,10 +171,10 @@ def export_onnx(model: SpectralNet, path: Path, metadata: dict[str, Any]) -> flo
     onnx.checker.check_model(proto)
     onnx.save(proto, str(tmp))
     session = ort.InferenceSession(str(tmp), providers=["CPUExecutionProvider"])
-    probe = torch.rand(64, INPUT_SIZE, generator=torch.Generator().manual_seed(1))
+    x = torch.from_numpy(np.ascontiguousarray(probe, dtype=np.float32))
     with torch.no_grad():
-        ref_spd, ref_std = model(probe)
-    spd, log_std = session.run(["spd", "log_std"], {"inputs": probe.numpy()})
+        ref_spd, ref_std = model(x)
+    spd, log_std = session.run(["spd", "log_std"], {"inputs": x.numpy()})
     diff = max(float(np.abs(spd - ref_spd.numpy()).max()), float(np.abs(log_std - ref_std.numpy()).max()))
     if diff > 1e-5:
         tmp.unlink()
@@ -182,9 +205,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--hidden", type=int, nargs="+", default=[512, 512, 256])
+    parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", type=Path, default=REPO / "models")
     args = parser.parse_args(argv)
-    torch.set_num_threads(max(1, min(2, os.cpu_count() or 1)))
+    torch.set_num_threads(max(1, min(args.threads, os.cpu_count() or 1)))
     t0 = time.perf_counter()
     path = build_dataset(args.set, args.n_per_cube, args.seed, args.engine, workers=args.workers)
     data = dict(np.load(path))
@@ -215,13 +239,14 @@ def main(argv: list[str] | None = None) -> int:
                   "source": "training.spd_prior.gaussian_prior() (synthetic spectra only)"},
     }
     onnx_path = args.out / f"{MODEL_NAME}.onnx"
-    diff = export_onnx(model, onnx_path, metadata)
+    n_probe = min(512, len(data["inputs"]))
+    probe = data["inputs"][np.random.default_rng(args.seed + 1).choice(len(data["inputs"]), n_probe, replace=False)]
+    diff = export_onnx(model, onnx_path, metadata, probe)
     metadata["onnx_parity_max_abs_diff"] = diff
     write_json(onnx_path.with_suffix(".json"), metadata)
     # How far the final solve trusts the network: chosen on synthetic photos, stored with it.
     fusion = tune(load_model(onnx_path), args.set, 48 if args.set == "full" else 6, args.engine)
-    metadata["fusion"] = {"strength": fusion["strength"], "floor": fusion["floor"],
-                          "chosen_on": f"{fusion['n_photos']} synthetic photos (training.tune_fusion)"}
+    metadata["fusion"] = fusion_metadata(fusion)
     if args.set == "full" and args.out.resolve() == (REPO / "models").resolve():
         (REPO / "bench" / "fusion_tuning.md").write_text(report(fusion), encoding="utf-8")
     metadata["training"]["total_seconds"] = time.perf_counter() - t0

@@ -95,9 +95,12 @@ def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float
     return cached
 
 
-def _fusion(model: SpectralModel) -> tuple[float, float]:
-    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built."""
+def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, float]:
+    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built:
+    a calibrated photo's camera is known better, so it may trust the photo more."""
     f = model.metadata.get("fusion") or {}
+    if calibrated and "calibrated_strength" in f:
+        return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
     return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
 
 
@@ -262,7 +265,7 @@ def estimate_image(
     if mdl is not None and method == "model":
         x = model_inputs(profile, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
         net, std = mdl.predict(x)
-        strength, floor = fusion or _fusion(mdl)
+        strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
         spd = fused_solve(profile, matrix, net, std, strength, floor) if strength > 0 else net
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)

@@ -155,7 +155,8 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
                              "the metadata does not match the model — reinstall the add-on or rebuild the model")
     fusion = meta.get("fusion")
     if fusion is not None:  # strength and floor of the estimator's final solve
-        values = [fusion.get(k, 0.05) for k in ("strength", "floor")] if isinstance(fusion, dict) else [None]
+        keys = ("strength", "floor", "calibrated_strength", "calibrated_floor")
+        values = [fusion.get(k, 0.05) for k in keys] if isinstance(fusion, dict) else [None]
         if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
                    for v in values):
             raise ModelError(f"model metadata {side.name}: fusion should hold a non-negative strength and floor, "
