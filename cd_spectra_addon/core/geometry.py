@@ -176,8 +176,12 @@ def _contrast(residual: float, null_residual: float) -> float:
     return 0.0 if null_residual <= 0 else max(0.0, 1.0 - residual / null_residual)
 
 
+XTOL_PX = 0.01  # centres are wanted to ~0.05 px; finer moves are noise
+
+
 def _nelder_mead(f, x0: NDArray[np.float64], steps: NDArray[np.float64], max_evals: int,
-                 tol: float = 1e-6) -> tuple[NDArray[np.float64], float, int]:
+                 tol: float = 1e-6, xtol: float = XTOL_PX) -> tuple[NDArray[np.float64], float, int]:
+    """Minimise f from x0; stops when the simplex's values or its size (< xtol) stop mattering."""
     n = x0.size
     simplex = np.vstack([x0] + [x0 + np.eye(n)[i] * steps[i] for i in range(n)])
     values = np.array([f(x) for x in simplex])
@@ -186,6 +190,8 @@ def _nelder_mead(f, x0: NDArray[np.float64], steps: NDArray[np.float64], max_eva
         order = np.argsort(values)
         simplex, values = simplex[order], values[order]
         if values[-1] - values[0] < tol * max(abs(values[0]), 1e-12):
+            break
+        if float(np.max(np.abs(simplex[1:] - simplex[0]))) < xtol:
             break
         centroid = simplex[:-1].mean(axis=0)
         xr = centroid + (centroid - simplex[-1])
