@@ -77,7 +77,11 @@ def _slice(name: str) -> tuple[int, int]:
     raise KeyError(name)
 
 
-COLOUR_WEIGHT = 10.0  # Δu'v' 0.001 (just visible) costs as much as an MAE of 0.01
+# Weight of the u'v' term (10: Δu'v' 0.001, just visible, costs as much as an MAE of 0.01).
+# Default 0: trained with 10 the network was *worse* on synthetic photos of physical lamps once
+# fused with the photo (score 0.104 vs 0.094, bench/fusion_tuning.md, 48 photos each) — the
+# fusion already fixes colour from the photo, and the colour term cost spectral shape.
+COLOUR_WEIGHT = 0.0
 
 
 def _cmf() -> torch.Tensor:
@@ -93,7 +97,7 @@ def _uv_prime(spd: torch.Tensor, cmf: torch.Tensor) -> torch.Tensor:
 
 
 def loss_fn(spd: torch.Tensor, log_std: torch.Tensor, target: torch.Tensor, weight: torch.Tensor,
-            cmf: torch.Tensor | None = None) -> torch.Tensor:
+            cmf: torch.Tensor | None = None, colour_weight: float = COLOUR_WEIGHT) -> torch.Tensor:
     """Band-weighted L1, the colour the SPD makes (u'v'), and a Laplace likelihood that
     calibrates the uncertainty. Without the colour term the network trades colour for shape:
     a few small errors that all lean the same way move the light's colour visibly."""
@@ -101,13 +105,14 @@ def loss_fn(spd: torch.Tensor, log_std: torch.Tensor, target: torch.Tensor, weig
     l1 = (err * weight).mean()
     nll = ((err.detach() / log_std.exp() + log_std) * weight).mean()
     loss = l1 + 0.05 * nll
-    if cmf is not None:
-        loss = loss + COLOUR_WEIGHT * (_uv_prime(spd, cmf) - _uv_prime(target, cmf)).abs().sum(dim=1).mean()
+    if cmf is not None and colour_weight > 0:
+        loss = loss + colour_weight * (_uv_prime(spd, cmf) - _uv_prime(target, cmf)).abs().sum(dim=1).mean()
     return loss
 
 
 def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int, ...] = (512, 512, 256),
-          batch: int = 256, lr: float = 2e-3, log=print) -> tuple[SpectralNet, dict[str, Any]]:
+          batch: int = 256, lr: float = 2e-3, colour_weight: float = COLOUR_WEIGHT,
+          log=print) -> tuple[SpectralNet, dict[str, Any]]:
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     x = torch.from_numpy(data["inputs"].astype(np.float32))
@@ -131,7 +136,7 @@ def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int
         for i in range(0, len(perm) - batch + 1, batch):
             idx = perm[i:i + batch]
             spd, log_std = model(x[idx])
-            loss = loss_fn(spd, log_std, y[idx], weight, cmf)
+            loss = loss_fn(spd, log_std, y[idx], weight, cmf, colour_weight)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -146,7 +151,8 @@ def train(data: dict[str, np.ndarray], epochs: int, seed: int, hidden: tuple[int
             log(f"epoch {epoch + 1}: synthetic validation MAE {mae:.4f}, Δu'v' {duv:.4f}")
     info = {"epochs": epochs, "train_samples": int(len(tr)), "val_samples": int(n_val),
             "seconds": time.perf_counter() - start, "history": history, "hidden": list(hidden),
-            "val_mae": history[-1]["val_mae"], "val_duv": history[-1]["val_duv"]}
+            "val_mae": history[-1]["val_mae"], "val_duv": history[-1]["val_duv"],
+            "colour_weight": colour_weight}
     return model.eval(), info
 
 
@@ -206,13 +212,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--hidden", type=int, nargs="+", default=[512, 512, 256])
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--colour-weight", type=float, default=COLOUR_WEIGHT,
+                        help="weight of the u'v' colour term in the loss (0 = shape only)")
     parser.add_argument("--out", type=Path, default=REPO / "models")
     args = parser.parse_args(argv)
     torch.set_num_threads(max(1, min(args.threads, os.cpu_count() or 1)))
     t0 = time.perf_counter()
     path = build_dataset(args.set, args.n_per_cube, args.seed, args.engine, workers=args.workers)
     data = dict(np.load(path))
-    model, info = train(data, args.epochs, args.seed, tuple(args.hidden))
+    model, info = train(data, args.epochs, args.seed, tuple(args.hidden), colour_weight=args.colour_weight)
     train_cams, held = camera_split()
     prior = gaussian_prior()
     args.out.mkdir(parents=True, exist_ok=True)
