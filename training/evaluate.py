@@ -129,6 +129,10 @@ def _summary(rows: list[dict[str, float]]) -> dict[str, float]:
         vals = vals[np.isfinite(vals)]
         out[key] = float(np.mean(vals)) if vals.size else math.nan
         out[key + "_median"] = float(np.median(vals)) if vals.size else math.nan
+    conf = np.array([r.get("confidence", math.nan) for r in rows], dtype=float)
+    conf = conf[np.isfinite(conf)]
+    out["confidence"] = float(np.mean(conf)) if conf.size else math.nan
+    out["confidence_min"] = float(np.min(conf)) if conf.size else math.nan
     return out
 
 
@@ -340,12 +344,17 @@ def main(argv: list[str] | None = None) -> int:
             result["other_disc_groove_um"] = 0.055
             conds += [Condition("another disc (groove 0.055 µm)", other_disc),
                       Condition("another disc, calibrated", other_disc, calibrate=True)]
-        robustness = []
+        robustness, pooled = [], []
         for cond in conds:
             rows, _, _ = run_condition(photos, cond, subset, model)
+            pooled += rows
             robustness.append({"condition": cond.name, **_summary(rows)})
             print(f"robustness {cond.name}: {robustness[-1]['mae_400_700']:.4f}", flush=True)
         result["robustness"] = robustness
+        # Does a low confidence flag a bad estimate? Only answerable across conditions: nominal
+        # captures raise no warning, so their confidence is constant.
+        result["robustness_confidence_vs_error"] = _correlation([r["confidence"] for r in pooled],
+                                                                [r["mae_400_700"] for r in pooled])
 
         # Cameras: every camera photographing the subset, with its own profile.
         cams = camera_names()[::4] if args.quick else camera_names()
@@ -419,16 +428,22 @@ def render_markdown(r: dict[str, Any]) -> str:
         s = real["model"][src]
         lines.append(f"| *{src}* | {s['n']} | {_fmt(s['mae_400_700'])} | {_fmt(s['mae_380_780'])} | "
                      f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} |")
-    lines += ["", f"Correlation of confidence with the 400–700 nm error: {real['model']['confidence_vs_error']:.2f} "
-              "(negative is good).", "",
+    conf = real["model"]["all"]
+    lines += ["", f"Confidence on these nominal photos: mean {conf.get('confidence', math.nan):.2f}, lowest "
+              f"{conf.get('confidence_min', math.nan):.2f}; its correlation with the 400–700 nm error "
+              f"{_fmt(real['model']['confidence_vs_error'], 2)} (undefined when every photo gets the same value). "
+              "Across all robustness conditions below: "
+              f"{_fmt(r.get('robustness_confidence_vs_error', math.nan), 2)} (negative is good).", "",
               "## (iii) Robustness (model; subset of "
               f"{r['n_robustness_lamps']} lamps; 256² captures)", "",
-              "| condition | MAE 400–700 | × nominal | MAE 380–780 | Δu'v' |", "|---|---|---|---|---|"]
+              "| condition | MAE 400–700 | × nominal | MAE 380–780 | Δu'v' | confidence (mean, lowest) |",
+              "|---|---|---|---|---|---|"]
     nominal = r["robustness"][0]["mae_400_700"]
     for row in r["robustness"]:
         ratio = row["mae_400_700"] / nominal if nominal else math.nan
         lines.append(f"| {row['condition']} | {_fmt(row['mae_400_700'])} | {ratio:.2f} | {_fmt(row['mae_380_780'])} | "
-                     f"{_fmt(row['delta_uv_prime'])} |")
+                     f"{_fmt(row['delta_uv_prime'])} | {_fmt(row.get('confidence', math.nan), 2)}, "
+                     f"{_fmt(row.get('confidence_min', math.nan), 2)} |")
     lines += ["", "Each camera photographing a third of that subset with its own profile (held-out cameras were never "
               "trained on):", "", "| camera | held out | MAE 400–700 | MAE 380–780 | Δu'v' |", "|---|---|---|---|---|"]
     for row in r["cameras"]:

@@ -19,6 +19,16 @@ from .basis import REPO
 EVAL = REPO / "bench" / "eval.json"
 
 
+def _fusion_lines(fusion: dict[str, Any] | None) -> list[str]:
+    """How far the final solve trusts the network vs the photo: chosen on synthetic photos."""
+    if not fusion:
+        return []
+    return [f"- **Fusion with the photo:** strength {fusion['strength']:g} (floor {fusion['floor']:g}) uncalibrated,"
+            f" {fusion.get('calibrated_strength', fusion['strength']):g} (floor"
+            f" {fusion.get('calibrated_floor', fusion['floor']):g}) after a calibration shot; chosen on"
+            " synthetic photos of the prior's physical lamp families (`bench/fusion_tuning.md`)."]
+
+
 def _f(v: Any, digits: int = 4) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
@@ -67,9 +77,12 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         "  at geometries the pose fit produced. Data hash `" + meta["data_hash"] + "`.",
         f"- **Cameras:** {len(meta['cameras']['train'])} for training; held out (never trained on): "
         + ", ".join(meta["cameras"]["held_out"]) + ".",
-        f"- **Procedure:** AdamW, one-cycle LR, {t['epochs']} epochs, seed {t['seed']}; 10 % synthetic validation"
-        f" (MAE {_f(t['val_mae'])}). Training took {t['seconds'] / 60:.1f} min; `make model` from nothing "
-        f"{(t.get('total_seconds') or 0) / 60:.1f} min on this machine (cubes already cached excluded).",
+        f"- **Procedure:** AdamW, one-cycle LR, {t['epochs']} epochs, seed {t['seed']}; loss: band-weighted L1 +"
+        f" Laplace likelihood, u'v' colour weight {t.get('colour_weight', 0.0):g} (`bench/model_choice.md` says why);"
+        f" 10 % synthetic validation (MAE {_f(t['val_mae'])}). The network's fit took {t['seconds'] / 60:.1f} min;"
+        f" dataset + fit + export + fusion tuning {(t.get('total_seconds') or 0) / 60:.1f} min on this machine with"
+        " the basis cubes already rendered (rendering the 13 cubes adds ~6 min, `bench/render.md`).",
+        *_fusion_lines(meta.get("fusion")),
         "- **Never used for training, tuning or selection:** the LSPDD lamps and colour-science's measured sources and",
         "  CIE illuminants.",
         "",

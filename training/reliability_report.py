@@ -200,8 +200,8 @@ def run_sweeps() -> list[str]:
         "Exposure × level with the same camera noise (8-bit PNG). The check warns below 1 % of full scale.", "",
         *_sweep(dims, "exposure"),
         "", "### Still wrong: a constant offset (ambient light or a black level) in an EXR", "",
-        "No check flags this yet: the physics-only estimate degrades from about 1 % of full scale "
-        "added, at confidence 0.8 (the missing EXIF costs the 0.2).", "",
+        "No check flags this yet: the estimate degrades from about 1 % of full scale added or "
+        "subtracted, at confidence 0.8 (the missing EXIF costs the 0.2).", "",
         *_sweep(ambient, "offset (full scale 1)"),
     ]
 
@@ -335,7 +335,8 @@ def main(argv: list[str] | None = None) -> int:
         "- A constant offset (ambient light, a wrong black level) in a photo is not flagged (sweep above).",
         "- A disc far off the image centre is now flagged and its confidence capped, but not estimated well: "
         "the inverse assumes the camera looks at the disc's centre (fitting the principal point would fix it).",
-        "- A float TIFF needs Blender's image loader (the CLI refuses it, the add-on reads it).",
+        "- A 32-bit float TIFF needs Blender's image loader: the CLI and the add-on read it through Blender, "
+        "the bare Python API (`estimate_photo` without Blender) refuses it with a clear message.",
     ]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(doc) + "\n", encoding="utf-8")
