@@ -38,6 +38,7 @@ from .basis import REPO, basis_cube
 from .lamps import lspdd_lamps
 
 LARGE_DIR = REPO / "data" / "models" / "large"
+SENSOR_NOISE_CODES = 2.0
 
 
 def _large_model(quick: bool) -> Path | None:
@@ -115,24 +116,29 @@ def speed(quick: bool) -> dict[str, Any]:
                               photo.track_mask(scene))
     big = np.asarray(Image.fromarray(np.rint(photo.srgb_encode(img) * 255).astype(np.uint8)).resize((w, h),
                                                                                                     Image.BICUBIC))
+    # A camera's JPEG carries sensor noise at full resolution (σ ≈ 2 codes at base ISO); an
+    # upsampled render does not, and compresses (and decodes) several times faster than any real
+    # 24 MP photo would. Both files are timed; the noisy one is the product's case.
+    noisy = np.clip(big + np.random.default_rng(1).normal(0.0, SENSOR_NOISE_CODES, big.shape), 0, 255).astype(np.uint8)
     focal = 58.0
     exif = photo.exif_for(focal, 36.0, w, DEFAULT_CAMERA)
+    model = load_model()
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "big.jpg"
-        Image.fromarray(big).save(path, quality=90, exif=exif)
-        decode, estimate = [], []
-        model = load_model()
-        estimate_photo(path, model=model)
-        for _ in range(3 if quick else 7):
-            t0 = time.perf_counter()
-            with Image.open(path) as im:
-                im.load()
-            decode.append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            est = estimate_photo(path, model=model)
-            estimate.append(time.perf_counter() - t0)
-        m = compare_spds(est.spd, lamp.spd)
-        out["photo"] = {"megapixels": w * h / 1e6, "file_mb": path.stat().st_size / 1e6,
+        for key, pixels in (("photo", noisy), ("photo_noise_free", big)):
+            path = Path(tmp) / f"{key}.jpg"
+            Image.fromarray(pixels).save(path, quality=90, exif=exif)
+            decode, estimate = [], []
+            estimate_photo(path, model=model)
+            for _ in range(3 if quick else 7):
+                t0 = time.perf_counter()
+                with Image.open(path) as im:
+                    im.load()
+                decode.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                est = estimate_photo(path, model=model)
+                estimate.append(time.perf_counter() - t0)
+            m = compare_spds(est.spd, lamp.spd)
+            out[key] = {"megapixels": w * h / 1e6, "file_mb": path.stat().st_size / 1e6,
                         "bare_decode_ms": 1e3 * float(np.median(decode)),
                         "photo_to_spd_ms": 1e3 * float(np.median(estimate)),
                         "ratio": float(np.median(estimate) / np.median(decode)),
@@ -185,13 +191,17 @@ def main(argv: list[str] | None = None) -> int:
         name = f"**{r['name']}**" if r["shipped"] else r["name"]
         lines.append(f"| {name} | {r['ms']:.0f} | {r['mae_400_700']:.4f} | {r['mae_380_780']:.4f} | "
                      f"{r['delta_uv_prime']:.4f} | {'yes' if r['pareto'] else ''} |")
-    ph = sp["photo"]
+    ph, clean = sp["photo"], sp.get("photo_noise_free")
     enable = sp["enable_ms"]
     lines += ["", "## Speed", "",
-              f"- {ph['megapixels']:.0f}-megapixel JPEG ({ph['file_mb']:.1f} MB): photo → SPD "
-              f"{ph['photo_to_spd_ms']:.0f} ms; bare full decode of the same file {ph['bare_decode_ms']:.0f} ms "
-              f"(ratio {ph['ratio']:.2f}; goals ≤ 500 ms and ≤ 2×). Stages: "
-              + ", ".join(f"{k} {v:.0f} ms" for k, v in ph["stages_ms"].items()) + ".",
+              f"- {ph['megapixels']:.0f}-megapixel JPEG (q90, sensor noise σ {SENSOR_NOISE_CODES:g} codes at full "
+              f"resolution, {ph['file_mb']:.1f} MB): photo → SPD {ph['photo_to_spd_ms']:.0f} ms; bare full decode of "
+              f"the same file {ph['bare_decode_ms']:.0f} ms (ratio {ph['ratio']:.2f}; goals ≤ 500 ms and ≤ 2×). "
+              "Stages: " + ", ".join(f"{k} {v:.0f} ms" for k, v in ph["stages_ms"].items()) + ".",
+              *([f"- The same render upsampled without noise ({clean['file_mb']:.1f} MB, far more compressible than "
+                 f"any camera's file): photo → SPD {clean['photo_to_spd_ms']:.0f} ms, bare decode "
+                 f"{clean['bare_decode_ms']:.0f} ms (ratio {clean['ratio']:.2f}): the fixed cost after decoding "
+                 "(pose fit, profile, forward model) is what the ratio measures there."] if clean else []),
               f"- Model inference: {sp['inference_ms']:.2f} ms per photo (goal ≤ 2 ms).",
               "- Enabling the add-on (import + register in headless Blender): "
               + (f"{enable:.1f} ms (goal ≤ 50 ms)." if enable is not None else "not measured (bpy unavailable)."),

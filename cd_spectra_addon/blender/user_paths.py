@@ -7,7 +7,7 @@ from pathlib import Path
 
 import bpy
 
-from ..core import calibration
+from ..core import user_folders
 
 
 def _extension_package() -> str | None:
@@ -23,8 +23,8 @@ def register() -> None:
         folder = bpy.utils.extension_path_user(package, path="calibrations", create=True)
     except (ValueError, OSError):
         return
-    calibration.set_default_directory(Path(folder))
+    user_folders.set_default_directory(Path(folder))
 
 
 def unregister() -> None:
-    calibration.set_default_directory(None)
+    user_folders.set_default_directory(None)

@@ -25,11 +25,11 @@ from numpy.typing import NDArray
 from .errors import CDSpectraError
 from .profile import FEATURE_LAMBDA_NM, N_FEATURES
 from .spectral_grid import WAVELENGTHS_NM, peak_normalise
+from .user_folders import ENV_DIR, calibration_dir, set_default_directory
 
 GAIN_LIMITS = (0.2, 5.0)
 MIN_SIGNAL = 0.03  # bins whose predicted signal is below 3 % of the peak keep gain 1
 SMOOTH_BINS = 2  # gains are smoothed over ±2 bins (±10 nm of λ₁)
-ENV_DIR = "CD_SPECTRA_CALIBRATION_DIR"
 
 # CIE daylight basis S0, S1, S2 at 380–780 nm / 10 nm (CIE 015:2018 Table 6), for the
 # "daylight" reference of a calibration shot; interpolated to 5 nm.
@@ -44,7 +44,7 @@ _S2 = np.array([3.0, 1.2, -1.1, -0.5, -0.7, -1.2, -2.6, -2.9, -2.8, -2.6, -2.6, 
                 -1.2, -1.0, -0.5, -0.3, 0.0, 0.2, 0.5, 2.1, 3.2, 4.1, 4.7, 5.1, 6.7, 7.3, 8.6, 9.8,
                 10.2, 8.3, 9.6, 8.5, 7.0, 7.6, 8.0, 6.7, 5.2, 7.4, 6.8])
 
-__all__ = ["Calibration", "KNOWN_LAMPS", "known_lamp_spd", "calibration_dir", "set_default_directory", "fit_gains",
+__all__ = ["ENV_DIR", "Calibration", "KNOWN_LAMPS", "known_lamp_spd", "calibration_dir", "set_default_directory", "fit_gains",
            "save_calibration", "load_calibration", "list_calibrations", "calibrate_photo"]
 
 
@@ -102,27 +102,6 @@ class Calibration:
                 **self.metadata}
 
 
-_default_dir: Path | None = None
-
-
-def set_default_directory(path: Path | None) -> None:
-    """Where profiles go when no folder is given (the Blender layer points this at the
-    extension's user folder; None restores the default)."""
-    global _default_dir
-    _default_dir = None if path is None else Path(path)
-
-
-def calibration_dir() -> Path:
-    """Where profiles live: $CD_SPECTRA_CALIBRATION_DIR, else the folder the host application set,
-    else the user's config folder."""
-    env = os.environ.get(ENV_DIR)
-    if env:
-        return Path(env)
-    if _default_dir is not None:
-        return _default_dir
-    base = os.environ.get("APPDATA") or os.environ.get("XDG_CONFIG_HOME") or os.path.join(
-        os.path.expanduser("~"), ".config")
-    return Path(base) / "cd_spectra" / "calibrations"
 
 
 def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted: NDArray[np.float64]
