@@ -143,13 +143,20 @@ def _peak_normalised(spd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDA
     return spd / peak, peak
 
 
-def _as_xy(xy: ArrayLike) -> NDArray[np.float64]:
-    arr = np.asarray(xy, dtype=np.float64)
-    if arr.ndim == 0 or arr.shape[-1] != 2:
-        raise CDSpectraError(f"xy chromaticity needs 2 values on its last axis; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise CDSpectraError("xy contains NaN or infinite values")
+def _as_vectors(values: ArrayLike, n: int, what: str, label: str | None = None,
+                finite: bool = True) -> NDArray[np.float64]:
+    """``values`` as float64 (..., n); CDSpectraError naming ``what`` for another shape or,
+    with ``finite``, for NaN/Inf (``label`` overrides how the shape message names it)."""
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.ndim == 0 or arr.shape[-1] != n:
+        raise CDSpectraError(f"{label or what} needs {n} values on its last axis; got shape {arr.shape}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise CDSpectraError(f"{what} contains NaN or infinite values")
     return arr
+
+
+def _as_xy(xy: ArrayLike) -> NDArray[np.float64]:
+    return _as_vectors(xy, 2, "xy", label="xy chromaticity")
 
 
 # --- tristimulus and chromaticity ----------------------------------------------------------
@@ -167,11 +174,7 @@ def spd_to_xyz(spd: ArrayLike) -> NDArray[np.float64]:
 
 def xyz_to_xy(xyz: ArrayLike) -> NDArray[np.float64]:
     """CIE xy from XYZ (..., 3) → (..., 2); ValueError where X + Y + Z is not positive."""
-    arr = np.asarray(xyz, dtype=np.float64)
-    if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise CDSpectraError(f"XYZ needs 3 values on its last axis; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise CDSpectraError("XYZ contains NaN or infinite values")
+    arr = _as_vectors(xyz, 3, "XYZ")
     scale = np.max(np.abs(arr), axis=-1, keepdims=True)
     scaled = np.divide(arr, scale, out=np.zeros_like(arr), where=scale > 0)
     total = np.sum(scaled, axis=-1, keepdims=True)
@@ -285,11 +288,7 @@ def uv_to_cct_ohno2013(uv: ArrayLike) -> NDArray[np.float64]:
     >>> round(float(cct), 2), round(float(duv), 7)
     (6507.47, 0.0032233)
     """
-    arr = np.asarray(uv, dtype=np.float64)
-    if arr.ndim == 0 or arr.shape[-1] != 2:
-        raise CDSpectraError(f"uv needs 2 values on its last axis; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise CDSpectraError("uv contains NaN or infinite values")
+    arr = _as_vectors(uv, 2, "uv")
     flat = arr.reshape(-1, 2)
     out = np.empty_like(flat)
     for start in range(0, flat.shape[0], 512):  # bounded memory for large batches
@@ -339,9 +338,7 @@ def xyz_to_working_rgb(xyz: ArrayLike, space: str = "Linear Rec.709") -> NDArray
     (``Linear CIE-XYZ D65``: D65 is white), so for ACEScg the matrix includes the Bradford
     D65 → ACES-white adaptation of Blender's OCIO config. No clipping.
     """
-    arr = np.asarray(xyz, dtype=np.float64)
-    if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise CDSpectraError(f"XYZ needs 3 values on its last axis; got shape {arr.shape}")
+    arr = _as_vectors(xyz, 3, "XYZ", finite=False)
     return arr @ _tables().xyz_to_rgb[_space(space)].T
 
 
