@@ -74,16 +74,7 @@ class SpectraTable:
 def read_spectra_csv(path: str | Path) -> SpectraTable:
     """Parse a spectra table; ValueError with a specific reason when it is not one."""
     path = Path(path)
-    try:
-        size = path.stat().st_size
-        if size > MAX_TABLE_BYTES:
-            raise ValueError(f"{path.name} is {size / 1e6:.0f} MB; a spectra table is at most "
-                             f"{MAX_TABLE_BYTES // 2**20} MB")
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{path.name} is not a text file") from exc
-    except OSError as exc:
-        raise ValueError(f"cannot read {path}: {exc.strerror or exc}") from exc
+    text = _read_text(path, "a spectra table")  # CDSpectraError is a ValueError
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if len(lines) < 2:
         raise ValueError(f"{path.name} has fewer than two rows of data")
