@@ -236,6 +236,11 @@ def _good(folder: Path, base: Base) -> Path:
     return _write(folder, "good.jpg", base.linear, "jpg", base.exif)
 
 
+def _good_if_unwritable(folder: Path, base: Base) -> Path | None:
+    """The good photo, where this process can have a folder it cannot write (not as root)."""
+    return _good(folder, base) if unwritable_folder(folder) else None
+
+
 # --- toy models ------------------------------------------------------------------------------
 
 MODEL_VARIANTS = ("garbage-bytes", "missing-metadata", "metadata-not-json", "layout-mismatch",
@@ -407,14 +412,14 @@ CASES: tuple[Case, ...] = (
           Expect(CDSpectraError, ("does not exist",)), cli_args=lambda f: ["--json", str(f / "nowhere" / "out.json")],
           in_process=False),
     _case("output-read-only", "output", "--json into a folder this process cannot write",
-          lambda f, b: _good(f, b) if unwritable_folder(f) else None,
+          _good_if_unwritable,
           Expect(CDSpectraError, ("cannot write",)),
           cli_args=lambda f: ["--json", str(unwritable_folder(f) / "out.json")], in_process=False),
     _case("output-name-too-long", "output", "--json with a 300-character file name", _good,
           Expect(CDSpectraError, ("cannot write", "too long")), cli_args=lambda f: ["--json", str(f / ("x" * 300 + ".json"))],
           in_process=False),
     _case("plot-read-only", "output", "--plot into a folder this process cannot write",
-          lambda f, b: _good(f, b) if unwritable_folder(f) else None,
+          _good_if_unwritable,
           Expect(CDSpectraError, ("cannot write",)),
           cli_args=lambda f: ["--plot", str(unwritable_folder(f) / "spd.png")], in_process=False),
     _case("output-is-folder", "output", "--json naming an existing folder", _good,
