@@ -28,31 +28,31 @@ demo: setup
 
 # Re-make samples/cd_photo.jpg: CIE FL11 through the Cycles forward model (seeded).
 sample-photo: setup
-	$(PY) -m training.render_photo --spd samples/demo_lamps.csv --out out/sample --size 512 \
+	$(PY) -m training.simulation.render_photo --spd samples/demo_lamps.csv --out out/sample --size 512 \
 		--noise 0.005 --format jpg --seed 1
 	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 
 # Rebuild models/ from nothing (Cycles basis cubes, dataset, training, ONNX export), seeded.
 model: setup
-	$(PY) -m training.render_cubes --set full --engine cycles
-	$(PY) -m training.train --set full
+	$(PY) -m training.simulation.render_cubes --set full --engine cycles
+	$(PY) -m training.learning.train --set full
 
 eval: setup
-	$(PY) -m training.evaluate --out bench/eval.md
-	$(PY) -m training.model_card
+	$(PY) -m training.evaluation.evaluate --out bench/eval.md
+	$(PY) -m training.evaluation.model_card
 
 bench: setup
-	$(PY) -m training.bench --out bench/bench.md
+	$(PY) -m training.evaluation.bench --out bench/bench.md
 
 bench-render: setup
-	$(PY) -m training.bench_render --out bench/render.md
+	$(PY) -m training.evaluation.bench_render --out bench/render.md
 
 tune-solver: setup
-	$(PY) -m training.tune_solver --out bench/solver_tuning.md
+	$(PY) -m training.learning.tune_solver --out bench/solver_tuning.md
 
 # Hostile inputs, confidence sweeps, a 1000-estimate soak and forward-model extremes.
 reliability: setup
-	$(PY) -m training.reliability_report --out bench/reliability.md
+	$(PY) -m training.reliability.report --out bench/reliability.md
 
 # Blender extension zips (one per platform) in dist/, validated and smoke-tested; wheels are
 # downloaded from PyPI into build/wheels/ (git-ignored) on first use.

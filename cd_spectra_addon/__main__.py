@@ -26,7 +26,7 @@ from typing import Any, NoReturn
 
 from .core.cameras import DEFAULT_CAMERA
 
-DEFAULT_PRESET = "cd-default"  # training/render_photo.py's default (a test keeps them equal)
+DEFAULT_PRESET = "cd-default"  # training/simulation/render_photo.py's default (a test keeps them equal)
 EXIT_BAD_INPUT = 2
 
 

@@ -180,13 +180,13 @@ def last_json_line(text: str) -> dict[str, Any]:
 
 
 def render_sample_photo(out_dir: Path, temperature_k: float = 2856.0) -> Path:
-    """A synthetic CD photo of a blackbody lamp by ``training.render_photo`` (numpy engine, 256 px)."""
+    """A synthetic CD photo of a blackbody lamp by ``training.simulation.render_photo`` (numpy engine, 256 px)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     table = out_dir / "lamp.csv"
     wl = [380.0 + 5.0 * i for i in range(81)]
     table.write_text("wavelength_nm,lamp\n" + "".join(
         f"{w},{v}\n" for w, v in zip(wl, blackbody_spd(temperature_k))), encoding="utf-8")
-    subprocess.run([sys.executable, "-m", "training.render_photo", "--spd", str(table), "--out",
+    subprocess.run([sys.executable, "-m", "training.simulation.render_photo", "--spd", str(table), "--out",
                     str(out_dir / "photos"), "--engine", "numpy", "--size", "256", "--format", "png",
                     "--cache-dir", str(out_dir / "cache")], cwd=ROOT, check=True, capture_output=True, timeout=600)
     return out_dir / "photos" / "lamp.png"

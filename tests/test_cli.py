@@ -72,7 +72,7 @@ def _photos(tmp_path: Path, *names: str) -> list[str]:
 
 def test_defaults_equal_render_photo() -> None:
     from cd_spectra_addon.__main__ import build_parser
-    from training.render_photo import build_parser as render_parser
+    from training.simulation.render_photo import build_parser as render_parser
 
     ours = build_parser().parse_args(["estimate", "x.jpg"])
     theirs = render_parser().parse_args([])
@@ -128,7 +128,7 @@ def test_error_names_the_photo(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_end_to_end_on_a_rendered_photo(tmp_path: Path) -> None:
-    """The real estimator on a photo rendered by training.render_photo (CIE A lamp)."""
+    """The real estimator on a photo rendered by training.simulation.render_photo (CIE A lamp)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from extension_support import render_sample_photo, shipped_model_present
 

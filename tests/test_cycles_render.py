@@ -10,10 +10,10 @@ from scipy import special
 from cd_spectra_addon.core.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 from tests.ring_geometry import coaxial_first_order_radius_px, radial_peak_px
-from training.render_numpy import render_cube as numpy_cube
+from training.simulation.render_numpy import render_cube as numpy_cube
 
 bpy = pytest.importorskip("bpy")
-from training import cycles_scene  # noqa: E402  (needs bpy)
+from training.simulation import cycles_scene  # noqa: E402  (needs bpy)
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 

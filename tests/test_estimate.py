@@ -17,8 +17,8 @@ from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
 from cd_spectra_addon.core.estimate import estimate_photo
 from cd_spectra_addon.core.model import MODEL_DIR, load_model
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
-from training import photo
-from training.render_numpy import render_cube
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube
 
 SHIPPED = MODEL_DIR / "cd_spectra.onnx"
 needs_model = pytest.mark.skipif(not SHIPPED.is_file(), reason="no shipped model (run make model)")
@@ -113,7 +113,7 @@ def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, ca
     ref = known_lamp_spd("incandescent")
     cal_photo = _write(tmp_path, capture, ref, "cal", fmt="exr", noise=0.0, camera=off)
     from cd_spectra_addon.core.analysis import analyse
-    from cd_spectra_addon.core.forward import feature_matrix
+    from cd_spectra_addon.core.forward_matrix import feature_matrix
     from cd_spectra_addon.core.images import load_photo
 
     image = load_photo(cal_photo)
@@ -121,7 +121,7 @@ def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, ca
     focal, _ = est_mod.focal_px_for(image, preset)
     analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
     predicted = np.einsum("bcl,l->bc", feature_matrix(analysis.response, base), ref)
-    cal = Calibration("unit-test", fit_gains(analysis.profile.values, analysis.profile.valid, predicted),
+    cal = Calibration("unit-test", fit_gains(analysis.readout.values, analysis.readout.valid, predicted),
                       "cd-default", DEFAULT_CAMERA, new_metadata(str(cal_photo), "incandescent"))
     saved = save_calibration(cal, tmp_path / "cal")
     assert list_calibrations(tmp_path / "cal") == ["unit-test"]

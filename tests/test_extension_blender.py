@@ -103,7 +103,7 @@ def test_panels_live_in_the_sidebar(addon: Installed) -> None:
 
 
 def test_settings_defaults_match_the_cli_and_training(addon: Installed) -> None:
-    from training.render_photo import build_parser
+    from training.simulation.render_photo import build_parser
 
     defaults = build_parser().parse_args([])
     settings = bpy.context.scene.cd_spectra
@@ -622,7 +622,7 @@ def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: py
 
     def calibrate_photo(path, reference_spd, name, preset, camera):
         calls.append((path, np.asarray(reference_spd), name, preset, camera))
-        gains = np.ones((len(addon.sub("cd_spectra_addon.core.profile").FEATURE_LAMBDA_NM), 3))
+        gains = np.ones((len(addon.sub("cd_spectra_addon.core.readout").FEATURE_LAMBDA_NM), 3))
         return cal.save_calibration(cal.Calibration(name, gains, preset, camera, cal.new_metadata(path, "x")))
 
     monkeypatch.setattr(cal, "calibrate_photo", calibrate_photo, raising=False)
@@ -659,7 +659,7 @@ def sample_photo(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.slow
 def test_end_to_end_photo_to_matched_light(addon: Installed, sample_photo: Path,
                                            monkeypatch: pytest.MonkeyPatch) -> None:
-    """A photo rendered by training.render_photo (CIE A lamp) → Estimate → matched light.
+    """A photo rendered by training.simulation.render_photo (CIE A lamp) → Estimate → matched light.
 
     Runs the real estimator inside the installed add-on. Without a trained model in models/
     it runs the estimator's physics + prior path (model=None), the same code minus the network.

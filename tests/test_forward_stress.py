@@ -3,7 +3,7 @@
 Grazing light and view, the grid's end bands (380 and 780 nm, half-width hats), lamps with
 zero-power bands or no power at all, pitches from 0.3 µm (orders only at grazing angles) to
 20 µm (orders only close to the axis, so seen from far away), lamp sizes from 5e-4 to 0.1 rad,
-camera distances from 60 mm to 1.5 m. The numpy twin (``core.grating`` / ``training.render_numpy``)
+camera distances from 60 mm to 1.5 m. The numpy twin (``core.grating`` / ``training.simulation.render_numpy``)
 is checked everywhere by hypothesis; Cycles renders a small image of each extreme scene and must
 agree with the twin wherever there is signal.
 """
@@ -23,9 +23,9 @@ from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.capture import Disc
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
-from training import photo
-from training.render_numpy import render_cube as numpy_cube
-from training.stress import EDGE_BANDS, EXTREMES, compare_extreme, scene, twin_at_pixel_centres
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube as numpy_cube
+from training.reliability.stress import EDGE_BANDS, EXTREMES, compare_extreme, scene, twin_at_pixel_centres
 
 # --- numpy twin ----------------------------------------------------------------------------
 
@@ -96,7 +96,7 @@ def test_zero_power_bands_give_finite_photos_and_no_nan_estimate(tmp_path) -> No
 @pytest.mark.parametrize("name", list(EXTREMES))
 def test_cycles_agrees_with_the_twin_at_extremes(name: str) -> None:
     pytest.importorskip("bpy")
-    from training import cycles_scene
+    from training.simulation import cycles_scene
 
     anti_aliased, _ = cycles_scene.render_cube(EXTREMES[name], EDGE_BANDS, 8)  # jittered rays: no NaN anywhere
     assert np.all(np.isfinite(anti_aliased)) and anti_aliased.min() >= 0.0

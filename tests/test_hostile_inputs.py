@@ -1,6 +1,6 @@
 """Hostile inputs through the CLI, ``estimate_photo`` and the Blender operators.
 
-Every input is generated here from one rendered capture (``training.hostile``; no binary blobs).
+Every input is generated here from one rendered capture (``training.reliability.hostile``; no binary blobs).
 Each case says what the product must do -- a specific error with a message that says why, or a
 result whose confidence is capped and whose warning says why -- and is checked three ways:
 
@@ -34,8 +34,8 @@ from extension_support import (  # noqa: F401  (pytest fixtures for the Blender 
     Installed, addon, blackbody_spd, datablock_snapshot, fake_estimate, installed_addon, scene_snapshot,
 )
 from cd_spectra_addon.core.estimate import estimate_photo
-from training import hostile
-from training.hostile import CASES, CCT_TOLERANCE_K, TRUE_CCT_K, Case, Outcome
+from training.reliability import hostile
+from training.reliability.hostile import CASES, CCT_TOLERANCE_K, TRUE_CCT_K, Case, Outcome
 
 BY_NAME = {case.name: case for case in CASES}
 BOMBS = ("bomb-png", "bomb-jpeg")

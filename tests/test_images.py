@@ -22,7 +22,7 @@ from cd_spectra_addon.core import images
 from cd_spectra_addon.core.errors import PhotoError
 from cd_spectra_addon.core.images import DecodedPixels, LinearImage, load_photo
 from cd_spectra_addon.core.srgb import srgb_decode, srgb_encode
-from training.photo import encode_photo, exif_for
+from training.simulation.photo import encode_photo, exif_for
 
 # --- writers -------------------------------------------------------------------------------
 

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import nnls as scipy_nnls
 
-from cd_spectra_addon.core import forward, geometry, profile, solve
+from cd_spectra_addon.core import forward_matrix, pose_fit, readout, solve
 from cd_spectra_addon.core.calibration import daylight_spd, fit_gains, known_lamp_spd, planck_spd
 from cd_spectra_addon.core.cameras import load_camera
 from cd_spectra_addon.core.capture import Pose, Scene, load_preset
@@ -16,8 +16,8 @@ from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.nnls import nnls_normal
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
-from training import photo
-from training.render_numpy import render_cube
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube
 
 CAMERA = load_camera("Canon_EOS_5D_Mark_III")
 
@@ -40,7 +40,7 @@ def test_bin_median_matches_numpy(pairs):
     """The one-sort per-bin median (read back from the sorted keys) equals numpy's median."""
     bins = np.array([b for b, _ in pairs], dtype=np.int64)
     values = np.array([v for _, v in pairs], dtype=np.float64)
-    got = profile._bin_median(bins, values, 8)
+    got = readout._bin_median(bins, values, 8)
     for k in range(8):
         if np.any(bins == k):
             assert got[k] == pytest.approx(np.median(values[bins == k]), abs=1e-9 * (1 + np.ptp(values)))
@@ -53,7 +53,7 @@ def test_symmetry_centre_is_subpixel():
     for centre in [(60.3, 70.7), (55.0, 81.25)]:
         r = np.hypot(rows - centre[0], cols - centre[1])
         img = np.exp(-0.5 * ((r - 30) / 2.0) ** 2) + 0.5 * np.exp(-0.5 * ((r - 45) / 3.0) ** 2)
-        found = geometry.symmetry_centre(img)
+        found = pose_fit.symmetry_centre(img)
         assert abs(found[0] - centre[0]) < 0.05 and abs(found[1] - centre[1]) < 0.05
 
 
@@ -70,7 +70,7 @@ def test_a_single_line_lands_in_its_lambda1_bin(nominal):
     scene, cube = nominal
     spd = np.zeros(81)
     spd[34] = 1.0  # 550 nm
-    prof = profile.extract_profile(_photo(cube, spd, scene), None, scene)
+    prof = readout.extract_readout(_photo(cube, spd, scene), None, scene)
     peak_bin = int(np.argmax(prof.values.sum(axis=1)))
     assert abs(prof.lambda_nm[peak_bin] - 550.0) <= 5.0
 
@@ -79,8 +79,8 @@ def test_forward_matrix_reproduces_the_photo_profile(nominal):
     scene, cube = nominal
     spd = peak_normalise(planck_spd(3200.0) + 0.3 * np.exp(-0.5 * ((WAVELENGTHS_NM - 545) / 4) ** 2))
     img = _photo(cube, spd, scene)
-    prof = profile.extract_profile(img, None, scene)
-    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    prof = readout.extract_readout(img, None, scene)
+    matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), CAMERA)
     pred = np.einsum("bcl,l->bc", matrix, spd)
     ok = prof.valid
     scale = np.sum(pred[ok] * prof.values[ok]) / np.sum(pred[ok] ** 2)
@@ -91,8 +91,8 @@ def test_forward_matrix_reproduces_the_photo_profile(nominal):
 def test_physics_solve_round_trip(nominal, spd):
     scene, cube = nominal
     img = _photo(cube, spd, scene)
-    prof = profile.extract_profile(img, None, scene)
-    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    prof = readout.extract_readout(img, None, scene)
+    matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), CAMERA)
     est = solve.physics_solve(prof, matrix)
     metrics = compare_spds(est, spd)
     assert metrics["mae_400_700"] < 0.02 and metrics["delta_uv_prime"] < 0.002
@@ -104,8 +104,8 @@ def test_clipped_noise_bias_is_removed(nominal):
     spd = planck_spd(2856.0)
     img = _photo(cube, spd, scene, noise=0.02, seed=3)
     clipped = np.clip(img, 0.0, None)
-    ref = profile.extract_profile(img, None, scene)
-    got = profile.extract_profile(clipped, None, scene)
+    ref = readout.extract_readout(img, None, scene)
+    got = readout.extract_readout(clipped, None, scene)
     dark = ref.valid & (ref.lambda_nm > 800)
     naive = np.mean(np.clip(img, 0, None)) - np.mean(img)
     assert naive > 0
@@ -126,7 +126,7 @@ def test_pose_fit_finds_the_disc_centre(pose):
     scene = Scene(load_preset("cd-default").with_image_size(192), pose)
     cube = render_cube(scene, supersample=3)
     img = _photo(cube, planck_spd(3000.0), scene, noise=0.005)
-    fit = geometry.fit_geometry(img, load_preset("cd-default"), scene.preset.camera.focal_px)
+    fit = pose_fit.fit_pose(img, load_preset("cd-default"), scene.preset.camera.focal_px)
     truth = scene.project(np.zeros((1, 3)))[0]
     assert math.dist(fit.center_px, truth) < 0.6
     assert fit.residual < 0.01  # the fitted pose explains the photo (noise aside)
@@ -135,8 +135,8 @@ def test_pose_fit_finds_the_disc_centre(pose):
 def test_calibration_gains_recover_a_known_distortion(nominal, rng):
     scene, cube = nominal
     ref_spd = known_lamp_spd("incandescent")
-    prof = profile.extract_profile(_photo(cube, ref_spd, scene), None, scene)
-    matrix = forward.feature_matrix(forward.bin_response(scene, prof), CAMERA)
+    prof = readout.extract_readout(_photo(cube, ref_spd, scene), None, scene)
+    matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), CAMERA)
     predicted = np.einsum("bcl,l->bc", matrix, ref_spd)
     true_gain = 1.0 + 0.2 * np.sin(prof.lambda_nm / 60.0)[:, None] * np.array([1.0, -0.5, 0.8])
     gains = fit_gains(prof.values * true_gain * 7.0, prof.valid, predicted)
@@ -154,7 +154,7 @@ def test_daylight_reference_matches_cie_d65():
 def test_preprocessing_float32_matches_float64(nominal):
     scene, cube = nominal
     img = _photo(cube, daylight_spd(5000.0), scene, noise=0.01)
-    p64 = profile.extract_profile(img.astype(np.float64), None, scene)
-    p32 = profile.extract_profile(img.astype(np.float32), None, scene)
+    p64 = readout.extract_readout(img.astype(np.float64), None, scene)
+    p32 = readout.extract_readout(img.astype(np.float32), None, scene)
     assert np.array_equal(p64.valid, p32.valid)
     assert np.max(np.abs(p64.values - p32.values)) <= 1e-4 * p64.values.max()

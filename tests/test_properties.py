@@ -26,10 +26,10 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.estimate import estimate_image
 from cd_spectra_addon.core.images import ExifInfo, LinearImage
 from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model, model_inputs
-from cd_spectra_addon.core.profile import FEATURE_LAMBDA_NM, N_FEATURES, Profile
+from cd_spectra_addon.core.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
 from cd_spectra_addon.core.spectra_files import read_spectra_csv
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
-from training import hostile
+from training.reliability import hostile
 
 SLOW = settings(max_examples=40, deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
@@ -128,7 +128,7 @@ def test_any_photo_gives_a_finite_peak_normalised_spd_or_a_specific_error(case) 
 def test_random_integer_files_through_estimate_photo(bits_dtype, height, width, seed) -> None:
     """Real files (PNG 8/16-bit) of random content through the whole path, loader included."""
     from cd_spectra_addon.core.estimate import estimate_photo
-    from training.photo import write_photo
+    from training.simulation.photo import write_photo
 
     bits, _ = bits_dtype
     img = np.random.default_rng(seed).random((height, width, 3)) ** 3
@@ -148,7 +148,7 @@ finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False, allow_subno
 
 
 @st.composite
-def profiles(draw: st.DrawFn) -> Profile:
+def profiles(draw: st.DrawFn) -> Readout:
     valid = draw(arrays(np.bool_, N_FEATURES))
     values = draw(arrays(np.float64, (N_FEATURES, 3), elements=finite))
     noise = draw(arrays(np.float64, (N_FEATURES, 3), elements=st.floats(0.0, 1e6, allow_subnormal=False)))
@@ -159,7 +159,7 @@ def profiles(draw: st.DrawFn) -> Profile:
     pixels = PixelDiffraction(**{f: empty.astype(np.int64) if f == "index" else empty.astype(bool) if f == "on_tracks"
                                  else np.zeros((0, 3)) if f in ("points", "view") else empty
                                  for f in PixelDiffraction.__dataclass_fields__})
-    return Profile(lambda_nm=FEATURE_LAMBDA_NM.copy(), values=values, weight=np.ones(N_FEATURES),
+    return Readout(lambda_nm=FEATURE_LAMBDA_NM.copy(), values=values, weight=np.ones(N_FEATURES),
                    saturated_fraction=sat, valid=valid, noise=noise, pixels=pixels,
                    pixel_bin=np.zeros(0, np.int64), pixel_weight=np.zeros(0))
 

@@ -13,8 +13,8 @@ from tests.ring_geometry import (
     line_peak_px,
     radial_peak_px,
 )
-from training import photo
-from training.render_numpy import render_cube
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube
 
 RING_WAVELENGTHS = (400.0, 450.0, 550.0, 650.0, 750.0)
 

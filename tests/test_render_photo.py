@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from training import render_photo
+from training.simulation import render_photo
 
 CSV = "wavelength_nm,warm,cool\n" + "\n".join(
     f"{w},{(w - 350) / 430:.4f},{np.exp(-((w - 450) / 30) ** 2):.4f}" for w in range(360, 831, 2))

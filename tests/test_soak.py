@@ -1,6 +1,6 @@
 """Nothing accumulates: memory over many estimates, data-blocks over many add-on cycles.
 
-``python -m training.soak --n 1000`` is the full soak (bench/reliability.md); here a short run
+``python -m training.reliability.soak --n 1000`` is the full soak (bench/reliability.md); here a short run
 in a child process must keep its resident memory within 10 % after warm-up, and a leak the
 soak is meant to catch must fail it. In headless Blender, enabling/disabling the add-on and
 estimate → create-light cycles must not add a data-block, handler or decoder per cycle.
@@ -21,15 +21,15 @@ import pytest
 from extension_support import (  # noqa: F401  (pytest fixtures)
     ADDON_MODULE, Installed, addon, datablock_snapshot, installed_addon,
 )
-from training import soak
-from training.photo import write_photo
+from training.reliability import soak
+from training.simulation.photo import write_photo
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_short_soak_keeps_memory_flat(tmp_path: Path) -> None:
     out = tmp_path / "soak.json"
-    proc = subprocess.run([sys.executable, "-m", "training.soak", "--n", "48", "--warmup", "12", "--json", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "training.reliability.soak", "--n", "48", "--warmup", "12", "--json", str(out)],
                           capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
                           timeout=300)
     assert out.is_file(), proc.stderr[-3000:]
@@ -97,7 +97,7 @@ def test_estimate_and_create_light_cycles_add_only_what_they_make(blender_addon:
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     import bpy
 
-    from training.hostile import make_base
+    from training.reliability.hostile import make_base
 
     base = make_base(128)
     photos = []

@@ -24,8 +24,8 @@ from cd_spectra_addon.core.spectral_grid import (
     hat_integrals,
     resample_to_grid,
 )
-from training import spd_prior as prior
-from training.spd_prior import FAMILIES, sample_spds
+from training.learning import spd_prior as prior
+from training.learning.spd_prior import FAMILIES, sample_spds
 
 MODULE = Path(prior.__file__)
 

@@ -6,8 +6,8 @@ import re
 import numpy as np
 import pytest
 
-from training import render_basis
-from training.spectral_exr import channel_name, read_spectral_exr, write_spectral_exr
+from training.simulation import render_basis
+from training.simulation.spectral_exr import channel_name, read_spectral_exr, write_spectral_exr
 
 
 def test_channel_names_follow_the_fichet_layout():

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from cd_spectra_addon.core.model import INPUT_SIZE, load_model
-from training import dataset, train
-from training.spd_prior import gaussian_prior
+from training.learning import dataset
+from training.learning import train
+from training.learning.spd_prior import gaussian_prior
 
 
 def test_camera_split_holds_out_a_quarter():
@@ -23,8 +24,8 @@ def test_camera_split_holds_out_a_quarter():
 
 def test_training_never_imports_the_measured_lamps():
     """Measured lamps are for evaluation only: no training module may load them."""
-    code = ("import sys, training.train, training.dataset, training.spd_prior, training.tune_solver;"
-            "print('training.lamps' in sys.modules)")
+    code = ("import sys, training.learning.train, training.learning.dataset, training.learning.spd_prior, training.learning.tune_solver;"
+            "print('training.evaluation.lamps' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

@@ -21,7 +21,7 @@ from bpy.props import (
 
 from ..core.cameras import DEFAULT_CAMERA
 
-DEFAULT_PRESET = "cd-default"  # = training/render_photo.py's default (tested)
+DEFAULT_PRESET = "cd-default"  # = training/simulation/render_photo.py's default (tested)
 GENERIC_CAMERA = "generic"
 NO_CALIBRATION = "NONE"
 SPD_SHAPE = (3, 27)  # 81 bands: Blender vector properties allow at most 32 per dimension
@@ -119,7 +119,7 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
         description="Camera that took the photo (its colour sensitivities)")
     calibration: EnumProperty(
         name="Calibration", items=calibration_items, default=0,
-        description="Profile from a photo of a known lamp taken with the same camera and disc")
+        description="Calibration from a photo of a known lamp taken with the same camera and disc")
     light_type: EnumProperty(name="Light", items=LIGHT_TYPES, default="SPOT",
                              description="Type of light to create")
 
@@ -143,7 +143,7 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     calibration_lamp: EnumProperty(name="Known lamp", items=REFERENCE_LAMPS, default="incandescent")
     calibration_spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH",
                                          description="The lamp's spectrum as measured by a meter")
-    calibration_name: StringProperty(name="Profile name", default="my-camera",
+    calibration_name: StringProperty(name="Calibration name", default="my-camera",
                                       description="Name to save the calibration profile under")
 
 

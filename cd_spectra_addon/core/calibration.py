@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import CDSpectraError
-from .profile import FEATURE_LAMBDA_NM, N_FEATURES
+from .readout import FEATURE_LAMBDA_NM, N_FEATURES
 from .spectral_grid import WAVELENGTHS_NM, peak_normalise
 from .user_folders import ENV_DIR, calibration_dir, set_default_directory
 
@@ -191,7 +191,7 @@ def calibrate_photo(path: str | Path, reference_spd: NDArray[np.float64], name: 
     from .estimate import MAX_SIDE, camera_for, focal_px_for
     from .analysis import analyse
     from .cameras import DEFAULT_CAMERA
-    from .forward import feature_matrix
+    from .forward_matrix import feature_matrix
     from .images import load_photo
     from .model import load_model
 
@@ -206,11 +206,11 @@ def calibrate_photo(path: str | Path, reference_spd: NDArray[np.float64], name: 
     focal, _ = focal_px_for(image, preset_obj)
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     analysis = analyse(np.asarray(image.rgb, dtype=np.float64), saturated, preset_obj, focal)
-    if analysis.fit.rainbow_contrast < 0.3 or int(np.sum(analysis.profile.valid)) < 10:
+    if analysis.fit.rainbow_contrast < 0.3 or int(np.sum(analysis.readout.valid)) < 10:
         raise CDSpectraError(f"no CD rainbow found in {Path(path).name}: calibration needs a photo of the disc "
                              "lit by the known lamp, taken like the later photos")
     predicted = np.einsum("bcl,l->bc", feature_matrix(analysis.response, cam), ref)
-    gains = fit_gains(analysis.profile.values, analysis.profile.valid, predicted)
+    gains = fit_gains(analysis.readout.values, analysis.readout.valid, predicted)
     metadata = new_metadata(str(path), reference_name or "reference SPD")
     metadata["rainbow_contrast"] = float(analysis.fit.rainbow_contrast)
     return save_calibration(Calibration(name, gains, preset_obj.name, camera, metadata), directory)

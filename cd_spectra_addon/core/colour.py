@@ -1,7 +1,7 @@
 """Colorimetry of an SPD on the product grid: XYZ, chromaticity, CCT / Duv, Blender RGB, metrics.
 
 Runs inside Blender's bundled Python, so numpy only: every number that would need
-colour-science is baked offline by ``training/bake_colour.py`` into ``colour_tables.json``
+colour-science is baked offline by ``tools/bake_colour.py`` into ``colour_tables.json``
 next to this file, and ``tests/test_colour.py`` checks them against colour-science again.
 
 Conventions

@@ -1,7 +1,7 @@
 """Photo → SPD: the whole inverse, with the reasons a result should or should not be trusted.
 
 1. load and linearise (:mod:`.images`), focal length in pixels from EXIF or the preset;
-2. capture geometry and the λ₁ profile (:mod:`.analysis`), optional calibration gains;
+2. capture geometry and the λ₁ readout (:mod:`.analysis`), optional calibration gains;
 3. physics: a non-negative MAP solve against the forward matrix under the synthetic prior;
 4. the learned model (:mod:`.model`) refines it into the final SPD and its uncertainty;
 5. confidence from what could go wrong — clipping, missing bins, a geometry the fit could not
@@ -26,11 +26,11 @@ from .calibration import Calibration, load_calibration
 from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from .capture import Preset, load_preset
 from .errors import CDSpectraError, NoDiscError, PhotoError
-from .forward import feature_matrix
-from .geometry import GeometryFit
+from .forward_matrix import feature_matrix
+from .pose_fit import PoseFit
 from .images import LinearImage, load_photo
 from .model import SpectralModel, load_model, model_inputs
-from .profile import Profile
+from .readout import Readout
 from .result import DiscFit, Estimate
 from .solve import GaussianPrior, fused_solve, physics_solve, prior_solve
 from .spectral_grid import WAVELENGTHS_NM
@@ -104,40 +104,40 @@ def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, floa
     return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
 
 
-def _calibrated(profile: Profile, calibration: Calibration | None) -> Profile:
+def _calibrated(readout: Readout, calibration: Calibration | None) -> Readout:
     if calibration is None:
-        return profile
+        return readout
     gains = calibration.gains
-    return replace(profile, values=profile.values / gains, noise=profile.noise / gains)
+    return replace(readout, values=readout.values / gains, noise=readout.noise / gains)
 
 
-def _bin_share(profile: Profile, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Per λ₁ bin, the share of the profile's pixel weight (Σ visibility²) that ``mask`` flags."""
-    px = profile.pixels
+def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Per λ₁ bin, the share of the readout's pixel weight (Σ visibility²) that ``mask`` flags."""
+    px = readout.pixels
     flagged = np.asarray(mask).reshape(-1)[px.index]
     vis2 = px.visibility ** 2
-    n = profile.lambda_nm.size
-    total = np.bincount(profile.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
-    hit = np.bincount(profile.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
+    n = readout.lambda_nm.size
+    total = np.bincount(readout.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
+    hit = np.bincount(readout.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
     return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
 
 
-def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
+def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
                 image: LinearImage | None, generic: bool, focal_source: str) -> tuple[float, list[str], dict]:
     """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
     warnings: list[str] = []
     score = 1.0
-    lam = profile.lambda_nm
+    lam = readout.lambda_nm
     core = (lam >= 400) & (lam <= 700)
-    coverage = float(np.mean(profile.valid[core]))
-    # The profile leaves out clipped and NaN/Inf pixels alike; only clipping is over-exposure.
-    clipped = profile.saturated_fraction if image is None or not np.any(image.invalid) else \
-        _bin_share(profile, image.saturated)
+    coverage = float(np.mean(readout.valid[core]))
+    # The readout leaves out clipped and NaN/Inf pixels alike; only clipping is over-exposure.
+    clipped = readout.saturated_fraction if image is None or not np.any(image.invalid) else \
+        _bin_share(readout, image.saturated)
     sat_core = float(np.mean(clipped[core] > 0.05))
-    # Re-render the profile from the estimate and compare with the photo.
-    valid = profile.valid
+    # Re-render the readout from the estimate and compare with the photo.
+    valid = readout.valid
     pred = np.einsum("bcl,l->bc", matrix, spd)
-    meas = profile.values
+    meas = readout.values
     if np.any(valid):
         p, m = pred[valid], meas[valid]
         scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
@@ -154,12 +154,12 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
                         "by the frame, or the lamp and camera are too far off the disc's axis")
         score *= max(0.1, coverage)
     if image is not None and np.any(image.invalid):
-        bad = float(np.mean(_bin_share(profile, image.invalid)[core]))
+        bad = float(np.mean(_bin_share(readout, image.invalid)[core]))
         stats["invalid_share"] = bad
         warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
                         "check the raw conversion or the EXR export")
         score *= max(0.2, 1.0 - 2.0 * bad)
-    # A very dark 8-bit rainbow first: it also inflates the geometry and profile residuals below.
+    # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
     peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
     if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
         warnings.append(f"the rainbow is very dark (its brightest part is {100 * peak:.1f}% of full scale), so 8-bit "
@@ -182,7 +182,7 @@ def _confidence(profile: Profile, matrix: NDArray[np.float64], spd: NDArray[np.f
     if residual > 0.05:
         warnings.append("the recovered spectrum does not reproduce the photo well — treat it as approximate")
         score *= max(0.2, 1.0 - 5.0 * (residual - 0.05))
-    noise = float(np.median(profile.noise[valid])) if np.any(valid) else 1.0
+    noise = float(np.median(readout.noise[valid])) if np.any(valid) else 1.0
     snr = peak / max(noise, 1e-12)
     stats["snr"] = snr
     if snr < 30:
@@ -211,7 +211,7 @@ def estimate_image(
     focal_px: float | None = None,
     progress: Progress | None = None,
     method: str = "model",
-    fit: GeometryFit | None = None,
+    fit: PoseFit | None = None,
     fusion: tuple[float, float] | None = None,
 ) -> Estimate:
     """Estimate from an already loaded photo (see :func:`estimate_photo`).
@@ -242,8 +242,8 @@ def estimate_image(
     report(0.2, "Finding the disc")
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
-    profile = _calibrated(analysis.profile, cal)
-    if int(np.sum(profile.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
+    readout = _calibrated(analysis.readout, cal)
+    if int(np.sum(readout.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
         hint = ""
         if clipped > 0.2:
             hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
@@ -256,17 +256,17 @@ def estimate_image(
     matrix = feature_matrix(analysis.response, cam)
     prior = _prior(mdl) if method != "physics" else None
     if prior is not None:
-        e_phys = prior_solve(profile, matrix, prior[0], precision=prior[1])
+        e_phys = prior_solve(readout, matrix, prior[0], precision=prior[1])
     else:
-        e_phys = physics_solve(profile, matrix)
+        e_phys = physics_solve(readout, matrix)
     if not np.any(e_phys > 0):
         raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
     sigma = analysis.scene.preset.light.lobe_sigma
     if mdl is not None and method == "model":
-        x = model_inputs(profile, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
+        x = model_inputs(readout, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
         net, std = mdl.predict(x)
         strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
-        spd = fused_solve(profile, matrix, net, std, strength, floor) if strength > 0 else net
+        spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
     spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
@@ -277,7 +277,7 @@ def estimate_image(
     std = np.nan_to_num(std, nan=0.25, posinf=1.0)
     t3 = time.perf_counter()
     report(0.9, "Colour")
-    confidence, warnings, stats = _confidence(profile, matrix, spd, analysis, image, generic, source)
+    confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source)
     if unusable and mdl is not None and method == "model":
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5

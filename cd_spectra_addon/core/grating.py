@@ -27,7 +27,7 @@ Gaussian lobe in λ is integrated in closed form (erf), the slowly varying facto
 are taken at the lobe centre clipped into the band. A weak front-surface specular and a
 Lambertian base (the disc's faint grey look, and what makes its rim visible) complete it.
 
-Every constant here is mirrored in ``training/shaders/cd_grating.osl``; tests hold them equal.
+Every constant here is mirrored in ``training/simulation/shaders/cd_grating.osl``; tests hold them equal.
 """
 
 from __future__ import annotations
@@ -347,7 +347,7 @@ def band_radiance(
     """Radiance towards the camera integrated over each band's hat: shape frame.shape + (bands,).
 
     Dense over bands: meant for modest point counts (tests, forward matrices, stress checks);
-    the image renderer in ``training.render_numpy`` evaluates the same terms sparsely.
+    the image renderer in ``training.simulation.render_numpy`` evaluates the same terms sparsely.
     """
     centers = np.asarray(band_centers_nm, dtype=np.float64).reshape(-1)
     areas = hat_integrals(centers, half_width_nm, lo_nm, hi_nm)

@@ -1,6 +1,6 @@
 """The learned half of the inverse: model inputs, and the ONNX model that maps them to an SPD.
 
-The network sees what physics already knows — the λ₁ profile (normalised), which bins are
+The network sees what physics already knows — the λ₁ readout (normalised), which bins are
 valid, saturated or noisy, the camera's sensitivities, the physics-only solution and the fitted
 lamp size — and returns a non-negative, peak-normalised SPD with a per-wavelength uncertainty.
 The input layout is defined here once, for training and for inference; its hash is stored in
@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import ModelError
-from .profile import FEATURE_LAMBDA_NM, N_FEATURES, Profile
+from .readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
 from .spectral_grid import N_BANDS, WAVELENGTHS_NM
 
 MODEL_DIR = Path(__file__).resolve().parent.parent.parent / "models"
@@ -33,7 +33,7 @@ SIGMA_REF = 0.003
 
 # (name, length) in order: the model input vector.
 INPUT_LAYOUT: tuple[tuple[str, int], ...] = (
-    ("profile", N_FEATURES * 3),  # values / peak valid value, 0 where invalid
+    ("profile", N_FEATURES * 3),  # the readout: values / peak valid value, 0 where invalid (name fixed by layout_hash)
     ("valid", N_FEATURES),
     ("snr", N_FEATURES),  # log10(peak / noise) / 4, 0 where invalid
     ("saturated", N_FEATURES),
@@ -54,7 +54,7 @@ def layout_hash() -> str:
 
 
 def model_inputs(
-    profile: Profile,
+    readout: Readout,
     camera_sensitivities: NDArray[np.float64],
     physics_spd: NDArray[np.float64],
     lobe_sigma: float,
@@ -65,18 +65,18 @@ def model_inputs(
     # Absurd profiles (a tiny peak beside huge invalid values) overflow here; the result is
     # cleaned below, so numpy's warnings would only be noise in Blender's console.
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        values = np.where(profile.valid[:, None], profile.values, 0.0)
-        peak = float(np.max(values)) if np.any(profile.valid) else 0.0
+        values = np.where(readout.valid[:, None], readout.values, 0.0)
+        peak = float(np.max(values)) if np.any(readout.valid) else 0.0
         scale = peak if peak > 0 else 1.0
-        noise = np.mean(profile.noise, axis=1)
-        snr = np.where(profile.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
+        noise = np.mean(readout.noise, axis=1)
+        snr = np.where(readout.valid, np.log10(scale / np.maximum(noise, 1e-6 * scale)) / 4.0, 0.0)
         phys_peak = float(np.max(physics_spd))
         physics = physics_spd / phys_peak if phys_peak > 0 else np.zeros(N_BANDS)
         parts = [
             (values / scale).ravel(),
-            profile.valid.astype(np.float64),
+            readout.valid.astype(np.float64),
             snr,
-            profile.saturated_fraction,
+            readout.saturated_fraction,
             np.asarray(camera_sensitivities, dtype=np.float64).ravel(),
             physics,
             np.array([math.log(max(lobe_sigma, 1e-6) / SIGMA_REF), float(generic_camera),

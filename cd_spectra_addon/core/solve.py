@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from .nnls import nnls_normal
 from .spectral_grid import WAVELENGTHS_NM
-from .profile import Profile
+from .readout import Readout
 
 SMOOTHNESS = 3e-2  # relative to the data term's mean curvature (bench/solver_tuning.md, synthetic spectra)
 MODEL_ERROR_FLOOR = 0.01  # features are trusted to 1 % of their peak at best
@@ -49,7 +49,7 @@ def second_difference(n: int) -> NDArray[np.float64]:
     return d
 
 
-def system(profile: Profile, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
+def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
            background: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Weighted rows (A, y) of the valid features and the data scale (peak feature).
 
@@ -57,8 +57,8 @@ def system(profile: Profile, matrix: NDArray[np.float64], gain: NDArray[np.float
     dark floor an integer photo gets from noise clipped at zero are flat in λ₁, unlike any
     lamp seen through a camera, so they separate cleanly instead of becoming a fake IR tail.
     """
-    values = profile.values if gain is None else profile.values / np.where(gain > 0, gain, 1.0)
-    valid = profile.valid
+    values = readout.values if gain is None else readout.values / np.where(gain > 0, gain, 1.0)
+    valid = readout.valid
     y = values[valid].reshape(-1)
     a = matrix[valid].reshape(-1, matrix.shape[-1])
     if background:
@@ -67,17 +67,17 @@ def system(profile: Profile, matrix: NDArray[np.float64], gain: NDArray[np.float
     scale = float(np.max(np.abs(y))) if y.size else 0.0
     if scale <= 0:
         return a, y, 0.0
-    noise = profile.noise[valid].reshape(-1)
+    noise = readout.noise[valid].reshape(-1)
     sigma = np.sqrt(noise ** 2 + (MODEL_ERROR_FLOOR * scale) ** 2)
     return a / sigma[:, None], y / sigma, scale
 
 
-def physics_solve(profile: Profile, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
+def physics_solve(readout: Readout, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
                   gain: NDArray[np.float64] | None = None, background: bool = True) -> NDArray[np.float64]:
     """Non-negative SPD (81,) minimising ‖A E − y‖² + λ‖D₂E‖² (λ scaled to the data), with
     free per-channel background terms (see :func:`system`)."""
     n = matrix.shape[-1]
-    a, y, scale = system(profile, matrix, gain, background)
+    a, y, scale = system(readout, matrix, gain, background)
     if scale <= 0 or a.shape[0] == 0:
         return np.zeros(n)
     gram = a.T @ a
@@ -90,7 +90,7 @@ def physics_solve(profile: Profile, matrix: NDArray[np.float64], smoothness: flo
     return x[:n]
 
 
-def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPrior,
+def prior_solve(readout: Readout, matrix: NDArray[np.float64], prior: GaussianPrior,
                 strength: float = PRIOR_STRENGTH, gain: NDArray[np.float64] | None = None,
                 precision: NDArray[np.float64] | None = None, smoothness: float = SMOOTHNESS
                 ) -> NDArray[np.float64]:
@@ -101,12 +101,12 @@ def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPr
     what lamps usually do there, instead of extrapolating a curve into the dark.
     """
     n = matrix.shape[-1]
-    first = physics_solve(profile, matrix, smoothness, gain=gain)
+    first = physics_solve(readout, matrix, smoothness, gain=gain)
     band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
     s = float(first[band].max()) or float(first.max())
     if s <= 0:
         return first
-    a, y, _ = system(profile, matrix, gain)
+    a, y, _ = system(readout, matrix, gain)
     prec = prior.precision() if precision is None else precision
     gram = a.T @ a
     rhs = a.T @ y
@@ -116,7 +116,7 @@ def prior_solve(profile: Profile, matrix: NDArray[np.float64], prior: GaussianPr
     return nnls_normal(gram, rhs)[:n]
 
 
-def fused_solve(profile: Profile, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
+def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
                 strength: float, floor: float, gain: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior.
 
@@ -127,7 +127,7 @@ def fused_solve(profile: Profile, matrix: NDArray[np.float64], mean: NDArray[np.
     """
     n = matrix.shape[-1]
     mean = np.clip(np.asarray(mean, dtype=np.float64), 0.0, None)
-    a, y, scale = system(profile, matrix, gain)
+    a, y, scale = system(readout, matrix, gain)
     if scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
         return mean
     pred = a[:, :n] @ mean

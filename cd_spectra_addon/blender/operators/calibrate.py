@@ -27,7 +27,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
     lamp: EnumProperty(name="Known lamp", items=[(i, n, d) for i, n, d, _ in REFERENCE_LAMPS],
                        default="incandescent")
     spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH", options={"SKIP_SAVE"})
-    profile_name: StringProperty(name="Profile name", options={"SKIP_SAVE"})
+    profile_name: StringProperty(name="Calibration name", options={"SKIP_SAVE"})
 
     def invoke(self, context: bpy.types.Context, event: Any) -> set[str]:
         settings = context.scene.cd_spectra

@@ -1,6 +1,6 @@
 """Soak: many estimates in one process, and whether its memory stays flat.
 
-    python -m training.soak --n 1000 [--warmup 50] [--size 128] [--json OUT.json]
+    python -m training.reliability.soak --n 1000 [--warmup 50] [--size 128] [--json OUT.json]
 
 The photos cycle through a small set written once to a temporary folder: three lamps in three
 encodings (8-bit PNG, JPEG, EXR) plus one input of each kind that must fail (no disc, an empty
@@ -70,8 +70,8 @@ def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
     from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
     from cd_spectra_addon.core.capture import Scene, load_preset
     from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
-    from training import photo
-    from training.render_numpy import render_cube
+    from training.simulation import photo
+    from training.simulation.render_numpy import render_cube
 
     scene = Scene(load_preset("cd-default").with_image_size(size))
     cube = render_cube(scene, supersample=2)

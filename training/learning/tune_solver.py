@@ -1,6 +1,6 @@
 """Choose the physics solve's regularisation on synthetic spectra only (never on real lamps).
 
-    python -m training.tune_solver [--out bench/solver_tuning.md] [--n 160] [--engine cycles]
+    python -m training.learning.tune_solver [--out bench/solver_tuning.md] [--n 160] [--engine cycles]
 
 Photos of prior spectra (a seed the training set does not use) from two training geometries,
 as JPEG and EXR with 1 % noise, through the product's preprocessing; a grid over the
@@ -17,17 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core import forward, solve
+from cd_spectra_addon.core import forward_matrix, solve
 from cd_spectra_addon.core.cameras import load_camera
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.profile import extract_profile
+from cd_spectra_addon.core.readout import extract_readout
 
-from . import photo
-from .basis import basis_cube
-from .dataset import CUBE_SETS, camera_split
-from .spd_prior import gaussian_prior, sample_spds
+from training.simulation import photo
+from training.simulation.basis import basis_cube
+from training.learning.dataset import CUBE_SETS, camera_split
+from training.learning.spd_prior import gaussian_prior, sample_spds
 
 SMOOTHNESS = (1e-3, 3e-3, 1e-2, 3e-2)
 STRENGTHS = (0.0, 0.03, 0.1, 0.3, 1.0)
@@ -59,8 +59,8 @@ def main(argv: list[str] | None = None) -> int:
                 path = Path(tmp) / f"p.{fmt}"
                 photo.write_photo(path, img, fmt)
                 loaded = load_photo(path, max_side=4096)
-                prof = extract_profile(np.asarray(loaded.rgb, np.float64), loaded.saturated, scene, px)
-                matrix = forward.feature_matrix(forward.bin_response(scene, prof), cam)
+                prof = extract_readout(np.asarray(loaded.rgb, np.float64), loaded.saturated, scene, px)
+                matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), cam)
                 cases.append((prof, matrix, spd, fmt))
     rows = []
     for smooth, strength in itertools.product(SMOOTHNESS, STRENGTHS):
@@ -83,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
                      float(np.mean(tails))))
     score = [r[2] + r[3] + r[4] for r in rows]
     best = rows[int(np.argmin(score))]
-    lines = ["# Physics-solve regularisation, chosen on synthetic spectra (`python -m training.tune_solver`)", "",
+    lines = ["# Physics-solve regularisation, chosen on synthetic spectra (`python -m training.learning.tune_solver`)", "",
              f"{args.n} prior spectra (seed 777) × geometries `nominal` and `lamp-beside`, 1 % noise, EXR and JPEG "
              "alternating, random training cameras. MAE after per-band peak normalisation.", "",
              "| smoothness | prior strength | MAE 400–700 EXR | MAE 400–700 JPEG | MAE 380–780 |", "|---|---|---|---|---|"]

@@ -1,6 +1,6 @@
 """Error against run time, and the product's speed figures (``make bench`` → bench/bench.md).
 
-    python -m training.bench [--out bench/bench.md] [--quick]
+    python -m training.evaluation.bench [--out bench/bench.md] [--quick]
 
 Operating points, all through ``estimate_image`` on the same photos (JPEG q90, 1 % noise, a
 768 × 768 capture): physics only, physics + Gaussian prior, the shipped model, a larger model
@@ -33,9 +33,9 @@ from cd_spectra_addon.core.estimate import estimate_image, estimate_photo
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
 
-from . import photo
-from .basis import REPO, basis_cube
-from .lamps import lspdd_lamps
+from training.simulation import photo
+from training.simulation.basis import REPO, basis_cube
+from training.evaluation.lamps import lspdd_lamps
 
 LARGE_DIR = REPO / "data" / "models" / "large"
 SENSOR_NOISE_CODES = 2.0
@@ -47,7 +47,7 @@ def _large_model(quick: bool) -> Path | None:
         return path if path.is_file() else None
     meta = json.loads((MODEL_DIR / f"{MODEL_NAME}.json").read_text())
     t = meta["training"]
-    cmd = [sys.executable, "-m", "training.train", "--set", t["cube_set"], "--n-per-cube", str(t["n_per_cube"]),
+    cmd = [sys.executable, "-m", "training.learning.train", "--set", t["cube_set"], "--n-per-cube", str(t["n_per_cube"]),
            "--epochs", str(t["epochs"]), "--seed", str(t["seed"]), "--engine", t["engine"],
            "--hidden", "1024", "1024", "512", "--out", str(LARGE_DIR)]
     subprocess.run(cmd, check=True, cwd=REPO)

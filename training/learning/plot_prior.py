@@ -1,6 +1,6 @@
 """Eyeball the SPD prior: a few random spectra per family in one PNG (default out/spd_prior.png).
 
-    .venv/bin/python -m training.plot_prior [--per-family 6] [--seed 0] [--out out/spd_prior.png]
+    .venv/bin/python -m training.learning.plot_prior [--per-family 6] [--seed 0] [--out out/spd_prior.png]
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
-from training.spd_prior import FAMILIES, sample_spds
+from training.learning.spd_prior import FAMILIES, sample_spds
 
 
 def main(argv: list[str] | None = None) -> Path:

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from cd_spectra_addon.core.spectral_grid import peak_normalise, resample_to_grid
 
-from .basis import REPO
+from training.simulation.basis import REPO
 
 SHARED_DATA = Path(os.environ.get("CD_SPECTRA_SHARED_DATA", REPO.parent / "shared" / "data"))
 LSPDD_FILE = SHARED_DATA / "spds-validation" / "lspdd_lamps_273-899.5nm_0.5nm_wide.csv"

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from .capture import Camera, Light, Pose, Preset, Scene
 from .diffraction import pixel_diffraction
-from .profile import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
+from .readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
 
 FIT_SIDE = 160  # the pose is fitted on an image of about this size
 # λ₁ bins of the fit: finer than the features, so a lamp line sharper than a feature bin does not
@@ -31,12 +31,12 @@ FINE_PIXELS = 12_000  # pixels the full-resolution refinement looks at
 RETRY_CONTRAST = 0.5  # below this rainbow contrast the fit is tried again from a grid of centres
 RETRY_GRID = 7  # centres per image axis for that second start
 RETRY_MAX_RESIDUAL = 0.15  # ...whose fit is kept only if it explains a CD's share of the photo
-__all__ = ["GeometryFit", "symmetry_centre", "scene_for", "consistency", "fit_geometry", "box_downsample"]
+__all__ = ["PoseFit", "symmetry_centre", "scene_for", "consistency", "fit_pose", "box_downsample"]
 
 
 @dataclass(frozen=True)
-class GeometryFit:
-    center_px: tuple[float, float]  # disc centre (row, col) in the image given to fit_geometry
+class PoseFit:
+    center_px: tuple[float, float]  # disc centre (row, col) in the image given to fit_pose
     ring_center_px: tuple[float, float]  # where the rings are centred (lamp/camera "midpoint foot")
     lobe_sigma: float
     focal_px: float
@@ -270,8 +270,8 @@ def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: flo
     return (float(y[0]), float(y[1])), (float(y[2]), float(y[3])), value, evals
 
 
-def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
-                 max_evals: int = 150, distance_mm: float | None = None) -> GeometryFit:
+def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
+                 max_evals: int = 150, distance_mm: float | None = None) -> PoseFit:
     """Fit disc centre, ring centre and lamp size to a linear photo (coordinates of ``rgb``)."""
     height, width, _ = rgb.shape
     factor = max(1, int(round(max(height, width) / FIT_SIDE)))
@@ -372,7 +372,7 @@ def fit_geometry(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         centre, ring, value, more = _refine(np.asarray(rgb, dtype=np.float64), preset, focal_px, dist, centre, ring,
                                             sigma0 * math.exp(x[4]), max_evals)
         evals += more
-    return GeometryFit(
+    return PoseFit(
         center_px=centre,
         ring_center_px=ring,
         lobe_sigma=float(sigma0 * math.exp(x[4])),

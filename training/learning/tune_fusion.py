@@ -1,11 +1,11 @@
 """Choose how strongly the final solve trusts the network, on synthetic photos only.
 
-    python -m training.tune_fusion [--model models/cd_spectra.onnx] [--n 48]
+    python -m training.learning.tune_fusion [--model models/cd_spectra.onnx] [--n 48]
 
 Photos of prior spectra (a seed the training set does not use) from the training geometries,
 degraded like the training data, through the product's preprocessing and model; a grid over the
 fusion strength and the uncertainty floor of :func:`cd_spectra_addon.core.solve.fused_solve`.
-``training.train`` runs this after exporting and stores the choice in the model's metadata;
+``training.learning.train`` runs this after exporting and stores the choice in the model's metadata;
 the table goes to bench/fusion_tuning.md.
 """
 
@@ -26,14 +26,14 @@ from cd_spectra_addon.core.cameras import CameraProfile, load_camera
 from cd_spectra_addon.core.capture import load_preset
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.estimate import focal_px_for
-from cd_spectra_addon.core.forward import feature_matrix
+from cd_spectra_addon.core.forward_matrix import feature_matrix
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import SpectralModel, load_model, model_inputs
 
-from . import photo
-from .basis import REPO, basis_cube
-from .dataset import CUBE_SETS, Degradation, _perturbed_camera, camera_split
-from .spd_prior import FAMILIES, gaussian_prior, sample_spds
+from training.simulation import photo
+from training.simulation.basis import REPO, basis_cube
+from training.learning.dataset import CUBE_SETS, Degradation, _perturbed_camera, camera_split
+from training.learning.spd_prior import FAMILIES, gaussian_prior, sample_spds
 
 STRENGTHS = (0.0, 0.1, 0.3, 1.0, 3.0)
 FLOORS = (0.02, 0.05, 0.1)
@@ -74,7 +74,7 @@ def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int =
             preset = load_preset(spec.preset)
             focal, _ = focal_px_for(image, preset)
             analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
-            profile = analysis.profile
+            profile = analysis.readout
             matrix = feature_matrix(analysis.response, CameraProfile("c", camera.sensitivities))
             e_phys = solve.prior_solve(profile, matrix, prior, precision=precision)
             x = model_inputs(profile, camera.sensitivities, e_phys, analysis.scene.preset.light.lobe_sigma, False,
@@ -121,7 +121,7 @@ def tune(model: SpectralModel, cube_set: str = "full", n: int = 48, engine: str 
 
 
 def report(result: dict[str, Any]) -> str:
-    lines = ["# Fusion of the network with the photo, chosen on synthetic photos (`python -m training.tune_fusion`)",
+    lines = ["# Fusion of the network with the photo, chosen on synthetic photos (`python -m training.learning.tune_fusion`)",
              "", f"{result['n_photos']} photos of spectra from the prior's physical lamp families (seed 31337; not the "
              "paper's artificial smooth/noisy/spiky kinds) from the training geometries, training "
              "degradations (JPEG/PNG/EXR, 0.3–2 % noise). Score = MAE 400–700 + MAE 380–780 + 10·Δu'v'. "

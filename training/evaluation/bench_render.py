@@ -1,6 +1,6 @@
 """Benchmark the forward renderer: basis cubes vs one render per sample, and samples vs error.
 
-    python -m training.bench_render [--out bench/render.md] [--quick]
+    python -m training.evaluation.bench_render [--out bench/render.md] [--quick]
 
 Prints and writes a Markdown table plus JSON (same stem). All timings in one run on this
 machine; compare them as ratios.
@@ -22,8 +22,8 @@ from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.capture import Scene, load_preset
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from . import cycles_scene, photo
-from .render_numpy import render_cube as numpy_cube
+from training.simulation import cycles_scene, photo
+from training.simulation.render_numpy import render_cube as numpy_cube
 
 PAPER_SAMPLES = 5000  # the paper rendered one image per training SPD
 

@@ -21,11 +21,12 @@ from cd_spectra_addon.core import grating
 from cd_spectra_addon.core.capture import Scene
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from .spectral_exr import read_spectral_exr, write_spectral_exr
+from training.simulation.spectral_exr import read_spectral_exr, write_spectral_exr
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CACHE_DIR = REPO / "data" / "basis"
-SHADER = REPO / "training" / "shaders" / "cd_grating.osl"
+HERE = Path(__file__).resolve().parent
+SHADER = HERE / "shaders" / "cd_grating.osl"
 ENGINES = ("cycles", "numpy")
 NUMPY_SUPERSAMPLE = 4
 
@@ -34,8 +35,8 @@ __all__ = ["CACHE_DIR", "ENGINES", "cube_key", "render_basis", "basis_cube"]
 
 def _physics_fingerprint(engine: str) -> str:
     """Hash of the code that makes this engine's pixels, so a changed shader invalidates the cache."""
-    files = (SHADER, REPO / "training" / "cycles_scene.py") if engine == "cycles" else (
-        Path(grating.__file__), REPO / "training" / "render_numpy.py")
+    files = (SHADER, HERE / "cycles_scene.py") if engine == "cycles" else (
+        Path(grating.__file__), HERE / "render_numpy.py")
     digest = hashlib.sha256()
     for path in files:
         digest.update(path.read_bytes())
@@ -62,7 +63,7 @@ def render_basis(
         spp = int(samples or scene.preset.samples)
         cube, _ = cycles_scene.render_cube(scene, WAVELENGTHS_NM, spp, seed)
     else:
-        from .render_numpy import render_cube
+        from training.simulation.render_numpy import render_cube
 
         spp = int(samples or NUMPY_SUPERSAMPLE)
         cube = render_cube(scene, supersample=spp)

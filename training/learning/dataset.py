@@ -1,7 +1,7 @@
 """Training data: synthetic photos through the product's own preprocessing, as model inputs.
 
 A handful of capture geometries is rendered once each with Cycles (basis cubes, see
-:mod:`training.basis`); then every sample is a photo made from a cube by a matrix product with a
+:mod:`training.simulation.basis`); then every sample is a photo made from a cube by a matrix product with a
 random SPD from the prior, a random training camera (with unit-to-unit gain and wavelength
 errors), random exposure (some clipping), noise, ambient light and file encoding (EXR, 16-bit
 PNG, 8-bit PNG, JPEG at several qualities), written to disk and read back by
@@ -24,19 +24,19 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core import forward, solve
+from cd_spectra_addon.core import forward_matrix, solve
 from cd_spectra_addon.core.cameras import CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
-from cd_spectra_addon.core.geometry import fit_geometry
+from cd_spectra_addon.core.pose_fit import fit_pose
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import INPUT_SIZE, model_inputs
-from cd_spectra_addon.core.profile import extract_profile
+from cd_spectra_addon.core.readout import extract_readout
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from . import photo
-from .basis import REPO, basis_cube
-from .spd_prior import gaussian_prior, sample_spds
+from training.simulation import photo
+from training.simulation.basis import REPO, basis_cube
+from training.learning.spd_prior import gaussian_prior, sample_spds
 
 DATA_DIR = REPO / "data" / "dataset"
 GENERIC = "generic"
@@ -180,17 +180,17 @@ def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generato
     flat = np.ones(81)
     truth_px = pixel_diffraction(scene)
     img, _ = photo.synthesize(cube, flat, load_camera(train_cameras[0]), 0.9, 0.0, rng, meter)
-    prof = extract_profile(img, None, scene, truth_px)
-    out.append(_Variant(scene, truth_px, forward.bin_response(scene, prof), 0.0, False))
+    prof = extract_readout(img, None, scene, truth_px)
+    out.append(_Variant(scene, truth_px, forward_matrix.bin_response(scene, prof), 0.0, False))
     spds, _ = sample_spds(n_fits, rng)
     for spd in spds:
         cam = load_camera(train_cameras[int(rng.integers(len(train_cameras)))])
         img, _ = photo.synthesize(cube, spd, cam, 0.9, 0.01, rng, meter)
-        fit = fit_geometry(img, preset, scene.preset.camera.focal_px)
+        fit = fit_pose(img, preset, scene.preset.camera.focal_px)
         fs = fit.scene(preset, scene.preset.camera.image_size_px)
         px = pixel_diffraction(fs)
-        prof = extract_profile(img, None, fs, px)
-        out.append(_Variant(fs, px, forward.bin_response(fs, prof), fit.residual, True))
+        prof = extract_readout(img, None, fs, px)
+        out.append(_Variant(fs, px, forward_matrix.bin_response(fs, prof), fit.residual, True))
     return out
 
 
@@ -231,10 +231,10 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
                                   camera.name)
             rgb, saturated = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
             variant = variants[int(rng.integers(len(variants)))]
-            prof = extract_profile(rgb, saturated, variant.scene, variant.pixels)
+            prof = extract_readout(rgb, saturated, variant.scene, variant.pixels)
             use_generic = rng.random() < deg.generic_probability
             sens = generic if use_generic else camera.sensitivities
-            matrix = forward.feature_matrix(variant.response, CameraProfile(GENERIC, sens))
+            matrix = forward_matrix.feature_matrix(variant.response, CameraProfile(GENERIC, sens))
             e_phys = solve.prior_solve(prof, matrix, prior, precision=precision)
             inputs[i] = model_inputs(prof, sens, e_phys, variant.scene.preset.light.lobe_sigma, use_generic,
                                      variant.residual)

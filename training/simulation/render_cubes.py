@@ -1,6 +1,6 @@
 """Render (or find in the cache) every basis cube of a training cube set.
 
-    python -m training.render_cubes [--set full] [--engine cycles]
+    python -m training.simulation.render_cubes [--set full] [--engine cycles]
 """
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from __future__ import annotations
 import argparse
 import time
 
-from .basis import basis_cube
-from .dataset import CUBE_SETS
+from training.simulation.basis import basis_cube
+from training.learning.dataset import CUBE_SETS
 
 
 def main(argv: list[str] | None = None) -> int:

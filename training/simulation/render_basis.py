@@ -1,6 +1,6 @@
 """Render one basis cube (per-band radiance, 380–780 nm / 5 nm) to a spectral OpenEXR.
 
-    python -m training.render_basis --preset cd-default --out data/basis/cd-default.exr
+    python -m training.simulation.render_basis --preset cd-default --out data/basis/cd-default.exr
         [--size W [H]] [--samples N] [--engine cycles|numpy] [--seed N]
         [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y]
 
@@ -16,13 +16,13 @@ from pathlib import Path
 
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from .basis import ENGINES, render_basis
-from .render_photo import scene_from_args
-from .spectral_exr import write_spectral_exr
+from training.simulation.basis import ENGINES, render_basis
+from training.simulation.render_photo import scene_from_args
+from training.simulation.spectral_exr import write_spectral_exr
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m training.render_basis", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m training.simulation.render_basis", description=__doc__.splitlines()[0])
     p.add_argument("--preset", default="cd-default")
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--size", type=int, nargs="+", metavar="PX")

@@ -1,5 +1,5 @@
 """Extreme captures for the forward model, and the OSL shader and its numpy twin evaluated at
-pixel centres, shared by ``tests/test_forward_stress.py`` and ``training.reliability_report``.
+pixel centres, shared by ``tests/test_forward_stress.py`` and ``training.reliability.report``.
 
 Pixel-centre values (Cycles: one sample, filter width 0.01 px) compare the two BRDF
 implementations exactly, where anti-aliased renders of sub-pixel features (a 0.5 mrad lamp, an
@@ -76,7 +76,7 @@ def cycles_at_pixel_centres(capture: Scene, wavelengths: np.ndarray) -> np.ndarr
     would only compare their sampling noise."""
     import bpy
 
-    from training import cycles_scene
+    from training.simulation import cycles_scene
 
     node = cycles_scene.build_capture_scene(capture, 1)
     bpy.context.scene.cycles.filter_width = 0.01
@@ -113,8 +113,8 @@ def antialiasing_comparison(spp: int = 1024, supersample: int = 16) -> dict[str,
     4×4 means; twin stratified 4×4 — the same sample positions). Needs bpy."""
     import bpy
 
-    from training import cycles_scene
-    from training.render_numpy import render_cube as numpy_cube
+    from training.simulation import cycles_scene
+    from training.simulation.render_numpy import render_cube as numpy_cube
 
     lam = np.array([450.0, 555.0, 600.0])
     idx = [int(round((x - 380.0) / 5.0)) for x in lam]

@@ -1,6 +1,6 @@
 """Evaluate the shipped model honestly (``make eval`` → bench/eval.md, bench/eval.json).
 
-    python -m training.evaluate [--quick] [--out bench/eval.md]
+    python -m training.evaluation.evaluate [--quick] [--out bench/eval.md]
 
 (i)  the paper's protocol: 4000 training / 1000 validation synthetic SPDs of the paper's kinds
      (smooth, noisy, spiky) in a perfect capture; MAE, RMSE, r beside the paper's numbers;
@@ -35,17 +35,17 @@ from cd_spectra_addon.core.calibration import Calibration, fit_gains, known_lamp
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.capture import Disc, Scene, load_preset
 from cd_spectra_addon.core.estimate import estimate_image, focal_px_for
-from cd_spectra_addon.core.forward import feature_matrix
+from cd_spectra_addon.core.forward_matrix import feature_matrix
 from cd_spectra_addon.core.analysis import analyse
-from cd_spectra_addon.core.geometry import fit_geometry
+from cd_spectra_addon.core.pose_fit import fit_pose
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import load_model
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from . import photo
-from .basis import REPO, basis_cube
-from .dataset import CubeSpec, Degradation, camera_split
-from .lamps import Lamp, all_lamps
+from training.simulation import photo
+from training.simulation.basis import REPO, basis_cube
+from training.learning.dataset import CubeSpec, Degradation, camera_split
+from training.evaluation.lamps import Lamp, all_lamps
 
 PAPER = {"mae": 0.0677, "r": 0.864}
 UPSAMPLE = 2
@@ -146,7 +146,7 @@ def _calibration_for(photos: _Photos, cond: Condition, model) -> Calibration:
     analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
     matrix = feature_matrix(analysis.response, load_camera(cond.profile or cond.camera))
     predicted = np.einsum("bcl,l->bc", matrix, ref)
-    gains = fit_gains(analysis.profile.values, analysis.profile.valid, predicted)
+    gains = fit_gains(analysis.readout.values, analysis.readout.valid, predicted)
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
 
 
@@ -165,7 +165,7 @@ def run_condition(photos: _Photos, cond: Condition, lamps: list[Lamp], model, me
         fit = None
         if cond.center_error_px:
             focal, _ = focal_px_for(image, preset)
-            base = fit_geometry(np.asarray(image.rgb, np.float64), preset, focal)
+            base = fit_pose(np.asarray(image.rgb, np.float64), preset, focal)
             angle = 2 * math.pi * ((i * 0.618) % 1.0)
             d = cond.center_error_px
             fit = replace(base, center_px=(base.center_px[0] + d * math.sin(angle),
@@ -186,8 +186,8 @@ def paper_protocol(engine: str, quick: bool, shipped, log=print) -> dict[str, An
     and validate on 1000 others — the paper's own protocol — and score the shipped model too."""
     import torch
 
-    from .dataset import _CubeJob, _run_cube
-    from .train import train
+    from training.learning.dataset import _CubeJob, _run_cube
+    from training.learning.train import train
 
     n_total = 500 if quick else 5000
     spec = CubeSpec("nominal")
@@ -229,7 +229,7 @@ def paper_protocol(engine: str, quick: bool, shipped, log=print) -> dict[str, An
 
 def rendering_check(lamps: list[Lamp], estimates: list[np.ndarray]) -> dict[str, Any]:
     """PSNR of renders under the estimated SPD and under an RGB-only light, against the truth."""
-    from .render_numpy import render_cube
+    from training.simulation.render_numpy import render_cube
 
     materials = {
         "CD": Scene(load_preset("cd-default").with_image_size(128)),

@@ -1,6 +1,6 @@
 """Train the spectral model on the synthetic dataset and export it to ONNX (``make model``).
 
-    python -m training.train [--set full|smoke] [--n-per-cube N] [--epochs N] [--seed N]
+    python -m training.learning.train [--set full|smoke] [--n-per-cube N] [--epochs N] [--seed N]
                              [--out models/] [--engine cycles|numpy]
 
 Seeded end to end (prior, photos, split, initialisation, batches). Writes
@@ -25,15 +25,15 @@ import torch
 from torch import nn
 
 from cd_spectra_addon import __version__
-from cd_spectra_addon.core import colour, geometry, profile, solve
+from cd_spectra_addon.core import colour, pose_fit, readout, solve
 from cd_spectra_addon.core.capture import preset_names, PRESET_DIR
 from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from .basis import REPO
-from .dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
-from .spd_prior import gaussian_prior
-from .tune_fusion import fusion_metadata, report, tune
+from training.simulation.basis import REPO
+from training.learning.dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
+from training.learning.spd_prior import gaussian_prior
+from training.learning.tune_fusion import fusion_metadata, report, tune
 
 BAND_WEIGHT = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 1.0, 0.5)
 
@@ -230,10 +230,10 @@ def main(argv: list[str] | None = None) -> int:
         "layout_hash": layout_hash(),
         "data_hash": str(data["key"]),
         "wavelength_nm": WAVELENGTHS_NM.tolist(),
-        "feature_lambda_nm": profile.FEATURE_LAMBDA_NM.tolist(),
+        "feature_lambda_nm": readout.FEATURE_LAMBDA_NM.tolist(),
         "input_layout": [list(item) for item in INPUT_LAYOUT],
-        "preprocessing": {"fit_side": geometry.FIT_SIDE, "min_visibility": profile.MIN_VISIBILITY,
-                          "outlier_mads": profile.OUTLIER_MADS, "feature_step_nm": profile.FEATURE_STEP_NM,
+        "preprocessing": {"fit_side": pose_fit.FIT_SIDE, "min_visibility": readout.MIN_VISIBILITY,
+                          "outlier_mads": readout.OUTLIER_MADS, "feature_step_nm": readout.FEATURE_STEP_NM,
                           "smoothness": solve.SMOOTHNESS, "model_error_floor": solve.MODEL_ERROR_FLOOR},
         "presets": _presets_digest(),
         "cameras": {"train": train_cams, "held_out": held},
@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         "metrics": {},
         "prior": {"mean": prior.mean.round(7).tolist(), "covariance": prior.covariance.round(9).tolist(),
                   "strength": solve.PRIOR_STRENGTH, "jitter": solve.PRIOR_JITTER,
-                  "source": "training.spd_prior.gaussian_prior() (synthetic spectra only)"},
+                  "source": "training.learning.spd_prior.gaussian_prior() (synthetic spectra only)"},
     }
     onnx_path = args.out / f"{MODEL_NAME}.onnx"
     n_probe = min(512, len(data["inputs"]))

@@ -1,10 +1,10 @@
 """Synthesize CD photos of given SPDs, as a camera would record them.
 
-    python -m training.render_photo --spd SPD.csv --out DIR [--preset NAME]
+    python -m training.simulation.render_photo --spd SPD.csv --out DIR [--preset NAME]
         [--camera NAME|FILE.json] [--format exr|png|png16|jpg] [--noise F] [--exposure F]
         [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y] [--seed N]
         [--size W [H]] [--upsample K] [--engine cycles|numpy] [--samples N] [--cache-dir DIR]
-    python -m training.render_photo --print-geometry [--preset NAME] [...pose options]
+    python -m training.simulation.render_photo --print-geometry [--preset NAME] [...pose options]
 
 SPD.csv: wavelength (nm) in the first column, one SPD per further column (any sampling).
 One photo per column is written to DIR/<column>.<ext>, plus DIR/render_photo.json describing
@@ -26,14 +26,14 @@ from cd_spectra_addon.core.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.spectra_files import read_spectra_csv, safe_stem
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from . import photo
-from .basis import CACHE_DIR, ENGINES, basis_cube
+from training.simulation import photo
+from training.simulation.basis import CACHE_DIR, ENGINES, basis_cube
 
 DEFAULT_PRESET = "cd-default"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m training.render_photo", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m training.simulation.render_photo", description=__doc__.split("\n\n")[0])
     p.add_argument("--spd", type=Path, help="CSV: wavelength column, then one column per SPD")
     p.add_argument("--out", type=Path, help="output folder")
     p.add_argument("--preset", default=DEFAULT_PRESET, help="capture preset name or JSON file")

@@ -1,6 +1,6 @@
-"""Forward matrix of the profile: what each 5 nm band of the lamp adds to each λ₁ bin.
+"""Forward matrix of the readout: what each 5 nm band of the lamp adds to each λ₁ bin.
 
-The profile operator is linear for fixed pixel weights, so applying it to the model's basis
+The readout operator is linear for fixed pixel weights, so applying it to the model's basis
 images (the BRDF at the photo's fitted geometry) gives, per bin, R[bin, λ]: the response to a
 unit lamp band. Multiplying by the camera's sensitivities gives the feature forward matrix.
 Evaluating the BRDF at every pixel would cost seconds at photo resolution; one footprint per
@@ -16,7 +16,7 @@ from . import grating
 from .cameras import CameraProfile
 from .capture import Scene
 from .diffraction import pixel_diffraction
-from .profile import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES, Profile
+from .readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES, Readout
 from .spectral_grid import WAVELENGTHS_NM
 
 SUB_BINS = 10  # λ₁ sub-bins per feature bin: the response shifts with λ₁ inside a bin
@@ -25,16 +25,16 @@ FOOTPRINT = 3  # sub-samples per pixel axis: a pixel integrates several nm of λ
 __all__ = ["bin_response", "feature_matrix"]
 
 
-def bin_response(scene: Scene, profile: Profile) -> NDArray[np.float64]:
-    """R[bin, λ] (NB × 81): profile value per unit lamp power in band λ (camera excluded).
+def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
+    """R[bin, λ] (NB × 81): readout value per unit lamp power in band λ (camera excluded).
 
     Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by smooth
     geometric factors. So the bin is split into λ₁ sub-bins; each sub-bin's weight
     (Σ w·amplitude²) comes from all its pixels, its response from its heaviest pixel, averaged
     over that pixel's footprint like the photo's pixel is.
     """
-    px = profile.pixels
-    w = profile.pixel_weight * px.amplitude ** 2
+    px = readout.pixels
+    w = readout.pixel_weight * px.amplitude ** 2
     n_bands = WAVELENGTHS_NM.size
     response = np.zeros((N_FEATURES, n_bands))
     live = np.flatnonzero(w > 0)
@@ -77,7 +77,7 @@ def bin_response(scene: Scene, profile: Profile) -> NDArray[np.float64]:
     response = sub_response.reshape(N_FEATURES, SUB_BINS, n_bands).sum(axis=1)
     totals = sub_weight.reshape(N_FEATURES, SUB_BINS).sum(axis=1)
     response /= np.where(totals > 0, totals, 1.0)[:, None]
-    response[~profile.valid] = 0.0
+    response[~readout.valid] = 0.0
     return response
 
 

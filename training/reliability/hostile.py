@@ -4,7 +4,7 @@ A :class:`Case` names an input, knows how to build it in a folder, and says what
 must do with it: refuse it with a specific :class:`CDSpectraError` subclass whose message holds
 given words, or estimate with at most a given confidence and a warning that says why (and,
 where a result is still meaningful, the right colour temperature). The same catalogue drives
-``tests/test_hostile_inputs.py`` (which asserts it) and ``training.reliability_report`` (which
+``tests/test_hostile_inputs.py`` (which asserts it) and ``training.reliability.report`` (which
 records what happened), so the report always describes the suite that runs.
 
 Every photo derives from one rendered capture of a CIE A lamp (``make_base``): the numpy twin
@@ -38,9 +38,9 @@ from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_NAME, layout_hash
 from cd_spectra_addon.core.spectral_grid import N_BANDS
 from cd_spectra_addon.core.srgb import srgb_encode
 
-from . import photo
+from training.simulation import photo
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BASE_SIZE = 256
 TRUE_CCT_K = 2856.0  # CIE A
 CCT_TOLERANCE_K = 150.0
@@ -70,7 +70,7 @@ class Base:
 def make_base(size: int = BASE_SIZE) -> Base:
     """A 256 px photo of a CD under CIE A (≈1.5 s: the basis cube is rendered once per process)."""
     from cd_spectra_addon.core.calibration import known_lamp_spd
-    from training.render_numpy import render_cube
+    from training.simulation.render_numpy import render_cube
 
     scene = Scene(load_preset("cd-default").with_image_size(size))
     cube = render_cube(scene, supersample=2)

@@ -1,13 +1,13 @@
 """Write bench/reliability.md: what the reliability suite tried and what each input produced.
 
-    python -m training.reliability_report [--out bench/reliability.md] [--soak-n 1000]
+    python -m training.reliability.report [--out bench/reliability.md] [--soak-n 1000]
 
 Every number in the file comes from this command: the hostile-input catalogue
-(``training.hostile``, the one ``tests/test_hostile_inputs.py`` asserts) run through the CLI and
+(``training.reliability.hostile``, the one ``tests/test_hostile_inputs.py`` asserts) run through the CLI and
 ``estimate_photo``; sweeps that calibrated the confidence checks for off-centre and very dark
 photos, and one that shows what is still wrong (ambient light); the soak
-(``training.soak``); and the forward-model extremes, Cycles against the numpy twin
-(``training.stress``; skipped without bpy).
+(``training.reliability.soak``); and the forward-model extremes, Cycles against the numpy twin
+(``training.reliability.stress``; skipped without bpy).
 """
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ import numpy as np
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
 
-from . import hostile, soak
+from training.reliability import hostile, soak
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _short(text: str, folder: Path, limit: int = 170) -> str:
@@ -167,7 +167,7 @@ def _model() -> Any:
 
 def run_sweeps() -> list[str]:
     from cd_spectra_addon.core.capture import load_preset
-    from training import photo
+    from training.simulation import photo
 
     base = hostile.make_base()
     lamps = {"CIE A": base.spd, "warm LED": _warm_led()}
@@ -210,11 +210,11 @@ def run_soak(n: int) -> tuple[list[str], dict[str, Any]]:
     """The soak in a child process of its own, so its RSS is the estimator's alone."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "soak.json"
-        subprocess.run([sys.executable, "-m", "training.soak", "--n", str(n), "--json", str(out)], cwd=ROOT,
+        subprocess.run([sys.executable, "-m", "training.reliability.soak", "--n", str(n), "--json", str(out)], cwd=ROOT,
                        env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True, text=True, timeout=7200)
         report = json.loads(out.read_text())
     ms = report["ms_per_estimate"]
-    lines = [f"`python -m training.soak --n {n}` ({report['estimator']}): {len(report['inputs'])} inputs in turn "
+    lines = [f"`python -m training.reliability.soak --n {n}` ({report['estimator']}): {len(report['inputs'])} inputs in turn "
              f"({', '.join(report['inputs'])}), {report['outcomes']['results']} results and "
              f"{report['outcomes']['errors']} refusals, in one process:", "",
              "| | RSS |", "|---|---|",
@@ -235,7 +235,7 @@ def run_stress() -> list[str]:
         import bpy  # noqa: F401
     except ImportError:
         return ["Skipped: bpy (headless Blender) is not importable here."]
-    from training.stress import EDGE_BANDS, EXTREMES, compare_extreme
+    from training.reliability.stress import EDGE_BANDS, EXTREMES, compare_extreme
 
     lines = ["Cycles (OSL, CPU) at pixel centres (1 sample, filter 0.01 px) against the numpy twin's "
              "band radiance at the same rays, 48 px, bands " + ", ".join(f"{b:.0f}" for b in EDGE_BANDS) + " nm "
@@ -257,7 +257,7 @@ def run_antialias() -> list[str]:
         import bpy  # noqa: F401
     except ImportError:
         return []
-    from training.stress import antialiasing_comparison
+    from training.reliability.stress import antialiasing_comparison
 
     r = antialiasing_comparison()
     pairs = lambda key: ", ".join(f"{w:.0f} nm {v:.3f}" for w, v in zip(r["wavelength_nm"], r[key]))  # noqa: E731
@@ -295,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = [
         "# Reliability: bad input, numerical stress, nothing lost",
         "",
-        f"Written by `python -m training.reliability_report --soak-n {args.soak_n}` "
+        f"Written by `python -m training.reliability.report --soak-n {args.soak_n}` "
         f"({dt.date.today().isoformat()}, commit {commit or '?'}, {os.cpu_count()} CPUs, "
         f"{platform.platform()}, Python {platform.python_version()}) in "
         f"{(time.perf_counter() - t0) / 60:.1f} min. The estimator is {estimator}.",

@@ -1,4 +1,4 @@
-"""The spectral profile of a photo: camera RGB binned by the first-order diffraction coordinate.
+"""The spectral readout of a photo: camera RGB binned by the first-order diffraction coordinate.
 
 Each disc pixel sees, to first order, the lamp at wavelength λ₁ = d·|u| scaled by how visible
 the lobe is there (exp(−v²/2σ²)) and by the slowly varying geometry (irradiance × G/w²): its
@@ -26,11 +26,11 @@ MIN_VISIBILITY = 0.3
 OUTLIER_MADS = 5.0
 MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
 
-__all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Profile", "extract_profile"]
+__all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Readout", "extract_readout"]
 
 
 @dataclass(frozen=True)
-class Profile:
+class Readout:
     lambda_nm: NDArray[np.float64]  # (NB,) bin centres of λ₁
     values: NDArray[np.float64]  # (NB, 3) amplitude per bin and channel (0 where invalid)
     weight: NDArray[np.float64]  # (NB,) Σ w·amplitude² of the pixels used
@@ -118,14 +118,14 @@ def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[n
     return out
 
 
-def extract_profile(
+def extract_readout(
     rgb: NDArray[np.floating],
     saturated: NDArray[np.bool_] | None,
     scene: Scene,
     pixels: PixelDiffraction | None = None,
     min_visibility: float = MIN_VISIBILITY,
-) -> Profile:
-    """Profile of a linear photo whose geometry is ``scene`` (same image size)."""
+) -> Readout:
+    """Readout of a linear photo whose geometry is ``scene`` (same image size)."""
     height, width, _ = rgb.shape
     if tuple(scene.preset.camera.image_size_px) != (width, height):
         raise ValueError("scene image size does not match the photo")
@@ -171,7 +171,7 @@ def extract_profile(
     sat_frac = np.divide(sat_w, total_w, out=np.zeros(N_FEATURES), where=total_w > 0)
     valid = (wv2 >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
     values[~valid] = 0.0
-    return Profile(
+    return Readout(
         lambda_nm=FEATURE_LAMBDA_NM.copy(),
         values=values,
         weight=wv2,
