@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from cd_spectra_addon.core import estimate as est_mod
+from cd_spectra_addon.core.calibration_shot import calibrate_photo
 from cd_spectra_addon.core.calibration import (
     Calibration, fit_gains, known_lamp_spd, list_calibrations, load_calibration, new_metadata, save_calibration,
 )
@@ -112,18 +113,7 @@ def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, ca
     off = CameraProfile("unit", base.sensitivities * np.array([1.06, 0.95, 1.05]))
     ref = known_lamp_spd("incandescent")
     cal_photo = _write(tmp_path, capture, ref, "cal", fmt="exr", noise=0.0, camera=off)
-    from cd_spectra_addon.core.analysis import analyse
-    from cd_spectra_addon.core.forward_matrix import feature_matrix
-    from cd_spectra_addon.core.images import load_photo
-
-    image = load_photo(cal_photo)
-    preset = load_preset("cd-default")
-    focal, _ = est_mod.focal_px_for(image, preset)
-    analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
-    predicted = np.einsum("bcl,l->bc", feature_matrix(analysis.response, base), ref)
-    cal = Calibration("unit-test", fit_gains(analysis.readout.values, analysis.readout.valid, predicted),
-                      "cd-default", DEFAULT_CAMERA, new_metadata(str(cal_photo), "incandescent"))
-    saved = save_calibration(cal, tmp_path / "cal")
+    saved = calibrate_photo(cal_photo, ref, "unit-test", directory=tmp_path / "cal", reference_name="incandescent")
     assert list_calibrations(tmp_path / "cal") == ["unit-test"]
     loaded = load_calibration(saved)
     target = _warm_led()

@@ -625,7 +625,7 @@ def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: py
         gains = np.ones((len(addon.sub("cd_spectra_addon.core.readout").FEATURE_LAMBDA_NM), 3))
         return cal.save_calibration(cal.Calibration(name, gains, preset, camera, cal.new_metadata(path, "x")))
 
-    monkeypatch.setattr(cal, "calibrate_photo", calibrate_photo, raising=False)
+    monkeypatch.setattr(addon.sub("cd_spectra_addon.core.calibration_shot"), "calibrate_photo", calibrate_photo)
     photo = tmp_path / "bulb.jpg"
     photo.write_bytes(b"jpeg")
     assert bpy.ops.cd_spectra.calibrate(filepath=str(photo), lamp="incandescent", profile_name="my D5100") \

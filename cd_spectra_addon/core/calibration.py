@@ -45,7 +45,7 @@ _S2 = np.array([3.0, 1.2, -1.1, -0.5, -0.7, -1.2, -2.6, -2.9, -2.8, -2.6, -2.6, 
                 10.2, 8.3, 9.6, 8.5, 7.0, 7.6, 8.0, 6.7, 5.2, 7.4, 6.8])
 
 __all__ = ["ENV_DIR", "Calibration", "KNOWN_LAMPS", "known_lamp_spd", "calibration_dir", "set_default_directory", "fit_gains",
-           "save_calibration", "load_calibration", "list_calibrations", "calibrate_photo"]
+           "save_calibration", "load_calibration", "list_calibrations"]
 
 
 def planck_spd(temperature_k: float) -> NDArray[np.float64]:
@@ -179,38 +179,3 @@ def list_calibrations(directory: Path | None = None) -> list[str]:
 def new_metadata(photo: str, reference: str) -> dict[str, Any]:
     return {"photo": photo, "reference": reference, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "format": 1, "note": "gains = measured / predicted profile, per λ₁ bin and channel"}
-
-
-
-
-def calibrate_photo(path: str | Path, reference_spd: NDArray[np.float64], name: str, preset: str = "cd-default",
-                    camera: str = "", directory: Path | None = None, reference_name: str = "") -> Path:
-    """Measure this camera + disc + set-up's gains from a photo of a lamp whose SPD is known,
-    save them as profile ``name`` and return its path."""
-    from .capture import load_preset
-    from .estimate import MAX_SIDE, camera_for, focal_px_for
-    from .analysis import analyse
-    from .cameras import DEFAULT_CAMERA
-    from .forward_matrix import feature_matrix
-    from .images import load_photo
-    from .model import load_model
-
-    ref = np.asarray(reference_spd, dtype=np.float64)
-    if ref.shape != WAVELENGTHS_NM.shape or not np.all(np.isfinite(ref)) or ref.max() <= 0 or ref.min() < 0:
-        raise CDSpectraError("the known lamp's spectrum must be 81 finite, non-negative values on 380–780 nm")
-    camera = camera or DEFAULT_CAMERA
-    preset_obj = load_preset(preset)
-    image = load_photo(path, max_side=MAX_SIDE)
-    model = load_model() if camera == "generic" else None
-    cam, _ = camera_for(camera, model)
-    focal, _ = focal_px_for(image, preset_obj)
-    saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
-    analysis = analyse(np.asarray(image.rgb, dtype=np.float64), saturated, preset_obj, focal)
-    if analysis.fit.rainbow_contrast < 0.3 or int(np.sum(analysis.readout.valid)) < 10:
-        raise CDSpectraError(f"no CD rainbow found in {Path(path).name}: calibration needs a photo of the disc "
-                             "lit by the known lamp, taken like the later photos")
-    predicted = np.einsum("bcl,l->bc", feature_matrix(analysis.response, cam), ref)
-    gains = fit_gains(analysis.readout.values, analysis.readout.valid, predicted)
-    metadata = new_metadata(str(path), reference_name or "reference SPD")
-    metadata["rainbow_contrast"] = float(analysis.fit.rainbow_contrast)
-    return save_calibration(Calibration(name, gains, preset_obj.name, camera, metadata), directory)

@@ -14,64 +14,37 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from . import colour
-from .analysis import Analysis, analyse
+from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
+                       network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
 from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from .capture import Preset, load_preset
-from .errors import CDSpectraError, NoDiscError, PhotoError
-from .forward_matrix import feature_matrix
-from .pose_fit import PoseFit
+from .errors import CDSpectraError, PhotoError
 from .images import LinearImage, load_photo
-from .model import SpectralModel, load_model, model_inputs
+from .model import SpectralModel, load_model
+from .pose_fit import PoseFit
 from .readout import Readout
 from .result import DiscFit, Estimate
-from .solve import GaussianPrior, fused_solve, physics_solve, prior_solve
+from .solve import GaussianPrior, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
 MAX_SIDE = 1024
 GENERIC = "generic"
-MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
-MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
 # The inverse assumes the camera looks straight at the disc's centre. With the disc off the
 # image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
 # 400–700 nm (CIE A) goes 0.004 → 0.03 at 4 mm, 0.07 at 8 mm, 0.14 at 16 mm, 0.25 at 24 mm
 # in the disc plane — all at confidence 1.0 before this check.
 CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
-# An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
-# quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
-# 0.3 % the rainbow is no longer found (bench/reliability.md).
-DIM_LEVEL_8BIT = 0.01
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "GENERIC", "focal_px_for", "estimate_image", "estimate_photo", "camera_for"]
-
-
-def focal_px_for(image: LinearImage, preset: Preset) -> tuple[float, str]:
-    """Focal length in loaded pixels and where it came from.
-
-    EXIF FocalLength × FocalPlaneXResolution is exact for the sensor's pixels; the 35 mm
-    equivalent assumes the long side spans 36 mm; otherwise the preset's field of view.
-    """
-    height, width = image.rgb.shape[:2]
-    exif = image.exif
-    if exif.focal_length_mm and exif.focal_plane_px_per_mm:
-        value = exif.focal_length_mm * exif.focal_plane_px_per_mm / image.scale
-        if math.isfinite(value) and value > 0:
-            return value, "exif"
-    if exif.focal_length_35mm:
-        value = exif.focal_length_35mm / 36.0 * max(width, height)
-        if math.isfinite(value) and value > 0:
-            return value, "exif-35mm"
-    cam = preset.camera
-    return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
+__all__ = ["MAX_SIDE", "GENERIC", "estimate_image", "estimate_photo", "camera_for"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -102,13 +75,6 @@ def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, floa
     if calibrated and "calibrated_strength" in f:
         return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
     return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
-
-
-def _calibrated(readout: Readout, calibration: Calibration | None) -> Readout:
-    if calibration is None:
-        return readout
-    gains = calibration.gains
-    return replace(readout, values=readout.values / gains, noise=readout.noise / gains)
 
 
 def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -224,46 +190,22 @@ def estimate_image(
         raise CDSpectraError(f"unknown method {method!r}")
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
-    name = Path(image.path).name or "the photo"
-    clipped = float(np.mean(image.saturated))
-    if clipped > MAX_SATURATED_SHARE:  # like the loader's errors: the path first
-        raise PhotoError(f"{image.path or 'the photo'}: over-exposed, {100 * clipped:.0f}% of the photo is clipped "
-                         "at full scale — use a much shorter exposure (or dim the lamp)")
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
     cam, generic = camera_for(camera, mdl)
     cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
-    rgb = np.asarray(image.rgb, dtype=np.float64)
-    if image.is_grey:
-        cam = CameraProfile(cam.name, np.repeat(cam.sensitivities.sum(axis=1, keepdims=True) / 3.0, 3, axis=1))
-    source = "given"
-    if focal_px is None:
-        focal_px, source = focal_px_for(image, preset_obj)
     report(0.2, "Finding the disc")
-    saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
-    analysis = analyse(rgb, saturated, preset_obj, focal_px, fit=fit)
-    readout = _calibrated(analysis.readout, cal)
-    if int(np.sum(readout.valid)) < 10 or analysis.fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
-        hint = ""
-        if clipped > 0.2:
-            hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
-        elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
-            hint = " (the photo is very dark: try a longer exposure)"
-        raise NoDiscError(f"no CD rainbow found in {name}{hint}: photograph the disc "
-                          "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
+    analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
+    readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
-    matrix = feature_matrix(analysis.response, cam)
-    prior = _prior(mdl) if method != "physics" else None
-    if prior is not None:
-        e_phys = prior_solve(readout, matrix, prior[0], precision=prior[1])
-    else:
-        e_phys = physics_solve(readout, matrix)
+    matrix = analysis.matrix
+    e_phys = physics_spd(analysis, _prior(mdl) if method != "physics" else None)
     if not np.any(e_phys > 0):
         raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
     sigma = analysis.scene.preset.light.lobe_sigma
     if mdl is not None and method == "model":
-        x = model_inputs(readout, cam.sensitivities, e_phys, sigma, generic, analysis.fit.residual)
+        x = network_inputs(analysis, e_phys)
         net, std = mdl.predict(x)
         strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
         spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
@@ -288,7 +230,7 @@ def estimate_image(
     if light.out_of_gamut:
         warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
     fit = analysis.fit
-    height, width = rgb.shape[:2]
+    height, width = image.rgb.shape[:2]
     s = image.scale
     disc = DiscFit(
         center_px=((fit.center_px[1] + 0.5) * s - 0.5, (fit.center_px[0] + 0.5) * s - 0.5),

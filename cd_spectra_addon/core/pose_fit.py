@@ -45,6 +45,17 @@ class PoseFit:
     symmetry_center_px: tuple[float, float]
     evaluations: int
     null_residual: float = 1.0  # the same with λ₁ dealt out at random: what no rainbow explains
+    known_scene: Scene | None = None  # the exact capture, where it is known (synthetic photos)
+
+    @classmethod
+    def of_scene(cls, scene: Scene) -> "PoseFit":
+        """The 'fit' of a photo whose capture is known exactly: training's and tests' ground truth."""
+        centre = scene.project(scene.disc_center[None, :])[0]
+        cam = scene.preset.camera
+        rc = (float(centre[0]), float(centre[1]))
+        return cls(center_px=rc, ring_center_px=rc, lobe_sigma=scene.preset.light.lobe_sigma, focal_px=cam.focal_px,
+                   distance_mm=cam.distance_mm, residual=0.0, symmetry_center_px=rc, evaluations=0,
+                   known_scene=scene)
 
     @property
     def rainbow_contrast(self) -> float:
@@ -53,6 +64,10 @@ class PoseFit:
         return _contrast(self.residual, self.null_residual)
 
     def scene(self, preset: Preset, image_size: tuple[int, int]) -> Scene:
+        if self.known_scene is not None:
+            if tuple(self.known_scene.preset.camera.image_size_px) != tuple(image_size):
+                raise ValueError("the known capture was rendered at another image size")
+            return self.known_scene
         return scene_for(preset, image_size, self.focal_px, self.center_px, self.ring_center_px,
                          self.lobe_sigma, self.distance_mm)
 

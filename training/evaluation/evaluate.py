@@ -31,12 +31,12 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core import colour as colour_core
-from cd_spectra_addon.core.calibration import Calibration, fit_gains, known_lamp_spd, new_metadata
+from cd_spectra_addon.core.analysis import focal_px_for
+from cd_spectra_addon.core.calibration import Calibration, known_lamp_spd, new_metadata
+from cd_spectra_addon.core.calibration_shot import gains_from_image
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.capture import Disc, Scene, load_preset
-from cd_spectra_addon.core.estimate import estimate_image, focal_px_for
-from cd_spectra_addon.core.forward_matrix import feature_matrix
-from cd_spectra_addon.core.analysis import analyse
+from cd_spectra_addon.core.estimate import estimate_image
 from cd_spectra_addon.core.pose_fit import fit_pose
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import load_model
@@ -142,11 +142,7 @@ def _calibration_for(photos: _Photos, cond: Condition, model) -> Calibration:
     path = photos.write(replace(cond, calibrate=False), ref, seed=99, tag="calibration")
     image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
     preset = load_preset(cond.spec.preset)
-    focal, _ = focal_px_for(image, preset)
-    analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
-    matrix = feature_matrix(analysis.response, load_camera(cond.profile or cond.camera))
-    predicted = np.einsum("bcl,l->bc", matrix, ref)
-    gains = fit_gains(analysis.readout.values, analysis.readout.valid, predicted)
+    gains, _ = gains_from_image(image, ref, preset, load_camera(cond.profile or cond.camera))
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
 
 

@@ -24,14 +24,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core import forward_matrix, solve
+from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
 from cd_spectra_addon.core.cameras import CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.capture import Pose, Preset, Scene, load_preset
 from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
-from cd_spectra_addon.core.pose_fit import fit_pose
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import INPUT_SIZE, model_inputs
-from cd_spectra_addon.core.readout import extract_readout
+from cd_spectra_addon.core.errors import CDSpectraError
+from cd_spectra_addon.core.images import LinearImage, load_photo
+from cd_spectra_addon.core.model import INPUT_SIZE
+from cd_spectra_addon.core.pose_fit import PoseFit, fit_pose
+from cd_spectra_addon.core.solve import GaussianPrior
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from training.simulation import photo
@@ -139,13 +140,11 @@ def _perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degr
 
 @dataclass
 class _Variant:
-    """A geometry the profile is taken at (the truth, or what the pose fit found)."""
+    """A geometry the readout is taken at: the truth, or what the pose fit found on another
+    photo of the same capture (its real errors), with the scene's per-pixel coordinates."""
 
-    scene: Scene
+    fit: PoseFit
     pixels: PixelDiffraction
-    response: NDArray[np.float64]
-    residual: float
-    fitted: bool
 
 
 @dataclass
@@ -163,12 +162,11 @@ class _CubeJob:
 
 
 def _write_and_load(image: NDArray[np.float64], fmt: str, quality: int, tmpdir: str, exif: bytes, max_side: int
-                    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+                    ) -> LinearImage:
     ext = {"png16": "png"}.get(fmt, fmt)
     path = Path(tmpdir) / f"sample.{ext}"
     photo.write_photo(path, image, fmt, exif, quality)
-    loaded = load_photo(path, max_side=max_side)
-    return np.asarray(loaded.rgb, dtype=np.float64), np.asarray(loaded.saturated)
+    return load_photo(path, max_side=max_side)
 
 
 def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generator, n_fits: int,
@@ -176,22 +174,27 @@ def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generato
     scene = spec.scene()
     preset = load_preset(spec.preset).with_image_size(spec.size)
     meter = photo.track_mask(scene)
-    out = []
-    flat = np.ones(81)
-    truth_px = pixel_diffraction(scene)
-    img, _ = photo.synthesize(cube, flat, load_camera(train_cameras[0]), 0.9, 0.0, rng, meter)
-    prof = extract_readout(img, None, scene, truth_px)
-    out.append(_Variant(scene, truth_px, forward_matrix.bin_response(scene, prof), 0.0, False))
+    out = [_Variant(PoseFit.of_scene(scene), pixel_diffraction(scene))]
     spds, _ = sample_spds(n_fits, rng)
     for spd in spds:
         cam = load_camera(train_cameras[int(rng.integers(len(train_cameras)))])
         img, _ = photo.synthesize(cube, spd, cam, 0.9, 0.01, rng, meter)
         fit = fit_pose(img, preset, scene.preset.camera.focal_px)
-        fs = fit.scene(preset, scene.preset.camera.image_size_px)
-        px = pixel_diffraction(fs)
-        prof = extract_readout(img, None, fs, px)
-        out.append(_Variant(fs, px, forward_matrix.bin_response(fs, prof), fit.residual, True))
+        out.append(_Variant(fit, pixel_diffraction(fit.scene(preset, scene.preset.camera.image_size_px))))
     return out
+
+
+def sample_features(loaded: LinearImage, preset: Preset, camera: CameraProfile, generic: bool, fit: PoseFit | None,
+                    pixels: PixelDiffraction | None, prior: tuple[GaussianPrior, NDArray[np.float64]]
+                    ) -> tuple[NDArray[np.float32], NDArray[np.float64]] | None:
+    """One training sample's network inputs and physics SPD through the product's own inverse path
+    (``prepare`` → ``physics_spd`` → ``network_inputs``), or None where the product refuses the photo."""
+    try:
+        analysis = prepare(loaded, preset, camera, generic_camera=generic, fit=fit, pixels=pixels)
+    except CDSpectraError:
+        return None
+    e_phys = physics_spd(analysis, prior)
+    return network_inputs(analysis, e_phys), e_phys
 
 
 def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
@@ -206,7 +209,9 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
     prior = gaussian_prior()
     precision = prior.precision()
     cam = scene.preset.camera
+    preset = load_preset(spec.preset)
     spds, families = sample_spds(job.n_samples, rng, families=job.families)
+    refused = np.zeros(job.n_samples, dtype=bool)
     inputs = np.zeros((job.n_samples, INPUT_SIZE), dtype=np.float32)
     physics = np.zeros((job.n_samples, 81), dtype=np.float32)
     meta = np.zeros((job.n_samples, 4), dtype=np.float32)  # format index, noise, exposure, generic
@@ -229,21 +234,23 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             quality = int(rng.integers(deg.jpeg_quality[0], deg.jpeg_quality[1] + 1))
             exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * deg.upsample,
                                   camera.name)
-            rgb, saturated = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
+            loaded = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
             variant = variants[int(rng.integers(len(variants)))]
-            prof = extract_readout(rgb, saturated, variant.scene, variant.pixels)
             use_generic = rng.random() < deg.generic_probability
-            sens = generic if use_generic else camera.sensitivities
-            matrix = forward_matrix.feature_matrix(variant.response, CameraProfile(GENERIC, sens))
-            e_phys = solve.prior_solve(prof, matrix, prior, precision=precision)
-            inputs[i] = model_inputs(prof, sens, e_phys, variant.scene.preset.light.lobe_sigma, use_generic,
-                                     variant.residual)
+            solve_camera = CameraProfile(GENERIC, generic) if use_generic else camera
+            features = sample_features(loaded, preset, solve_camera, use_generic, variant.fit, variant.pixels,
+                                       (prior, precision))
+            if features is None:
+                refused[i] = True  # the product would refuse this photo: it teaches nothing
+                continue
+            inputs[i], e_phys = features
             peak = float(e_phys.max())
             physics[i] = e_phys / peak if peak > 0 else 0.0
             meta[i] = (k, noise, exposure, float(use_generic))
-    print(f"  cube {spec.name}: {job.n_samples} samples", flush=True)
-    return {"inputs": inputs, "targets": spds.astype(np.float32), "physics": physics, "meta": meta,
-            "family": np.array(families), "cube": np.array([spec.name] * job.n_samples)}
+    keep = ~refused
+    print(f"  cube {spec.name}: {int(keep.sum())} samples ({int(refused.sum())} refused by the estimator)", flush=True)
+    return {"inputs": inputs[keep], "targets": spds.astype(np.float32)[keep], "physics": physics[keep],
+            "meta": meta[keep], "family": np.array(families)[keep], "cube": np.array([spec.name] * int(keep.sum()))}
 
 
 def dataset_key(cube_set: str, n_per_cube: int, seed: int, engine: str, deg: Degradation) -> str:

@@ -21,14 +21,12 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core import solve
-from cd_spectra_addon.core.analysis import analyse
-from cd_spectra_addon.core.cameras import CameraProfile, load_camera
+from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.cameras import load_camera
 from cd_spectra_addon.core.capture import load_preset
 from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.estimate import focal_px_for
-from cd_spectra_addon.core.forward_matrix import feature_matrix
 from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import SpectralModel, load_model, model_inputs
+from cd_spectra_addon.core.model import SpectralModel, load_model
 
 from training.simulation import photo
 from training.simulation.basis import REPO, basis_cube
@@ -71,15 +69,9 @@ def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int =
             photo.write_photo(path, img, fmt, photo.exif_for(c.focal_length_mm, c.sensor_width_mm,
                                                              c.image_size_px[0] * deg.upsample, camera.name))
             image = load_photo(path, max_side=max(c.image_size_px))
-            preset = load_preset(spec.preset)
-            focal, _ = focal_px_for(image, preset)
-            analysis = analyse(np.asarray(image.rgb, np.float64), image.saturated, preset, focal)
-            profile = analysis.readout
-            matrix = feature_matrix(analysis.response, CameraProfile("c", camera.sensitivities))
-            e_phys = solve.prior_solve(profile, matrix, prior, precision=precision)
-            x = model_inputs(profile, camera.sensitivities, e_phys, analysis.scene.preset.light.lobe_sigma, False,
-                             analysis.fit.residual)
-            net, std = model.predict(x)
+            analysis = prepare(image, load_preset(spec.preset), camera)
+            profile, matrix = analysis.readout, analysis.matrix
+            net, std = model.predict(network_inputs(analysis, physics_spd(analysis, (prior, precision))))
             cases.append((profile, matrix, net, std, spd))
     return cases
 

@@ -17,12 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core import forward_matrix, solve
+from cd_spectra_addon.core import solve
+from cd_spectra_addon.core.analysis import prepare
 from cd_spectra_addon.core.cameras import load_camera
+from cd_spectra_addon.core.capture import load_preset
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.readout import extract_readout
+from cd_spectra_addon.core.pose_fit import PoseFit
 
 from training.simulation import photo
 from training.simulation.basis import basis_cube
@@ -51,7 +53,9 @@ def main(argv: list[str] | None = None) -> int:
             scene = specs[name].scene()
             cube, _ = basis_cube(scene, args.engine)
             meter = photo.track_mask(scene)
+            truth = PoseFit.of_scene(scene)
             px = pixel_diffraction(scene)
+            preset = load_preset(specs[name].preset)
             for i, spd in enumerate(spds):
                 cam = load_camera(cams[int(rng.integers(len(cams)))])
                 img, _ = photo.synthesize(cube, spd, cam, 1.0, 0.01, rng, meter)
@@ -59,9 +63,8 @@ def main(argv: list[str] | None = None) -> int:
                 path = Path(tmp) / f"p.{fmt}"
                 photo.write_photo(path, img, fmt)
                 loaded = load_photo(path, max_side=4096)
-                prof = extract_readout(np.asarray(loaded.rgb, np.float64), loaded.saturated, scene, px)
-                matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), cam)
-                cases.append((prof, matrix, spd, fmt))
+                analysis = prepare(loaded, preset, cam, fit=truth, pixels=px)  # the product's path, true pose
+                cases.append((analysis.readout, analysis.matrix, spd, fmt))
     rows = []
     for smooth, strength in itertools.product(SMOOTHNESS, STRENGTHS):
         maes = {"jpg": [], "exr": []}

@@ -63,7 +63,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
             self.report({"ERROR"}, "Give the calibration profile a name")
             return {"CANCELLED"}
         try:
-            from ...core.calibration import calibrate_photo
+            from ...core.calibration_shot import calibrate_photo
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra cannot calibrate ({exc})")
             return {"CANCELLED"}
