@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver reliability extension clean
+.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver reliability extension bake-colour bake-cameras clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -58,6 +58,13 @@ reliability: setup
 # downloaded from PyPI into build/wheels/ (git-ignored) on first use.
 extension: setup
 	$(PY) tools/build_extension.py
+
+# Shipped tables baked once from their sources (outputs committed; re-run when a source changes).
+bake-colour: setup
+	$(PY) -m tools.bake_colour
+
+bake-cameras: setup
+	$(PY) -m tools.bake_cameras
 
 clean:
 	rm -rf out build dist .pytest_cache

@@ -1,6 +1,6 @@
 """Bake the 52 measured camera sensitivities (rawtoaces-data, Apache-2.0) into one shipped file.
 
-    python -m training.bake_cameras [--source ../shared/data/cameras]
+    make bake-cameras   (python -m tools.bake_cameras [--source ../shared/data/cameras])
 
 The add-on reads ``cd_spectra_addon/cameras/cameras.json``; the per-camera JSON files stay the
 reference. Re-run only when the source data changes (the output is committed).

@@ -1,6 +1,6 @@
 """Bake the colorimetry tables the add-on needs from colour-science into one shipped file.
 
-    python -m training.bake_colour
+    make bake-colour   (python -m tools.bake_colour)
 
 Blender's bundled Python has numpy only, so :mod:`cd_spectra_addon.core.colour` works from
 numbers baked here, once, offline: ``cd_spectra_addon/core/colour_tables.json``. Re-run only
@@ -87,7 +87,7 @@ def bake(target: Path = TARGET) -> dict:
     temps = np.geomspace(CCT_MIN_K, CCT_MAX_K, n + 1)
     uv = colour.temperature.CCT_to_uv_Planck1900(temps, cmf_planck)
     payload = {
-        "source": f"colour-science {colour.__version__}, baked by training/bake_colour.py",
+        "source": f"colour-science {colour.__version__}, baked by tools/bake_colour.py",
         "observer": OBSERVER,
         "wavelength_nm": WAVELENGTHS_NM.tolist(),
         "cmf_hat": cmf_hat_weights(cmfs_full).tolist(),
