@@ -83,7 +83,7 @@ def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, 
 
 
 def standard_lamp(identifier: str) -> list[float]:
-    """SPD of a known calibration lamp (core.calibration.KNOWN_LAMPS) on the product grid."""
-    from ..core.calibration import known_lamp_spd
+    """SPD of a known calibration lamp (core.illuminants.KNOWN_LAMPS) on the product grid."""
+    from ..core.illuminants import known_lamp_spd
 
     return [float(v) for v in known_lamp_spd(identifier)]

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import CDSpectraError
+from .illuminants import C2_ITS90_NM_K, planck_radiance
 from .spectral_grid import N_BANDS, WAVELENGTHS_NM
 
 __all__ = [
@@ -99,6 +100,8 @@ def _tables() -> _Tables:
     data = json.loads(TABLES_FILE.read_text(encoding="utf-8"))
     if not np.allclose(data["wavelength_nm"], WAVELENGTHS_NM):
         raise RuntimeError(f"{TABLES_FILE.name} was baked for another wavelength grid")
+    if data["planck_c2_m_k"] != C2_ITS90_NM_K / 1e9:
+        raise RuntimeError(f"{TABLES_FILE.name} was baked for another Planckian locus (c2)")
     planck = data["cmf_planck"]
     wl = np.arange(planck["start_nm"], planck["end_nm"] + planck["step_nm"] / 2, planck["step_nm"])
     table = data["planckian_table"]
@@ -112,7 +115,7 @@ def _tables() -> _Tables:
         cmf_hat=frozen(data["cmf_hat"]),
         cmf_planck=frozen(planck["values"]),
         planck_wavelength_m=frozen(wl * 1e-9),
-        c2=float(data["planck_c2_m_k"]),
+        c2=C2_ITS90_NM_K / 1e9,
         table_t=frozen(table["T"]),
         table_uv=frozen(np.stack([table["u"], table["v"]], axis=-1)),
         k_m=float(data["k_m_lm_per_w"]),
@@ -223,8 +226,7 @@ def planck_uv1960(cct: ArrayLike) -> NDArray[np.float64]:
     temps = np.asarray(cct, dtype=np.float64)
     if not np.all(np.isfinite(temps)) or np.any(temps < 100.0):
         raise CDSpectraError("a Planckian temperature must be finite and at least 100 K")  # else 0/0
-    lam = t.planck_wavelength_m
-    radiance = lam**-5 / np.expm1(t.c2 / (lam * temps[..., None]))
+    radiance = planck_radiance(t.planck_wavelength_m, temps[..., None], t.c2)
     xyz = radiance @ t.cmf_planck
     den = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
     return np.stack([4.0 * xyz[..., 0] / den, 6.0 * xyz[..., 1] / den], axis=-1)

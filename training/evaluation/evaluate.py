@@ -32,11 +32,12 @@ import numpy as np
 
 from cd_spectra_addon.core import colour as colour_core
 from cd_spectra_addon.core.analysis import focal_px_for
-from cd_spectra_addon.core.calibration import Calibration, known_lamp_spd, new_metadata
+from cd_spectra_addon.core.calibration import Calibration, new_metadata
 from cd_spectra_addon.core.calibration_shot import gains_from_image
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.capture import Disc, Scene, load_preset
 from cd_spectra_addon.core.estimate import estimate_image
+from cd_spectra_addon.core.illuminants import known_lamp_spd
 from cd_spectra_addon.core.pose_fit import fit_pose
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import load_model

@@ -58,10 +58,11 @@ from dataclasses import dataclass
 from functools import cache
 
 import numpy as np
-
-from cd_spectra_addon.core.solve import GaussianPrior
 from numpy.typing import ArrayLike, NDArray
 
+# Planck's law and c2 only: the prior takes no CIE illuminant from that module (tested).
+from cd_spectra_addon.core.illuminants import C2_NM_K, planck
+from cd_spectra_addon.core.solve import GaussianPrior
 from cd_spectra_addon.core.spectral_grid import (
     N_BANDS,
     WAVELENGTH_STEP_NM,
@@ -105,7 +106,6 @@ GRID = WAVELENGTHS_NM
 _D = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
 FINE_STEP_NM = 0.5
 FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
-C2_NM_K = 1.438776877e7  # second radiation constant hc/k (nm·K)
 _FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 _CHUNK = 4096  # rows per generator call: bounds the (rows, components, fine) temporaries
 
@@ -154,17 +154,6 @@ _KSF = ((609.5, 0.2), (613.0, 0.3), (631.0, 1.0), (635.5, 0.4), (647.5, 0.25))
 # ---------------------------------------------------------------------------------------------
 # Physics primitives
 # ---------------------------------------------------------------------------------------------
-def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike) -> Array:
-    """Planck's spectral radiance shape λ⁻⁵/(exp(c₂/λT)−1), scaled to 1 at 560 nm.
-
-    ``temperature_k`` broadcasts against the wavelengths' last axis (pass shape (n, 1) for rows).
-    """
-    lam = np.asarray(wavelengths_nm, dtype=np.float64)
-    t = np.asarray(temperature_k, dtype=np.float64)
-    b = (560.0 / lam) ** 5 * np.expm1(C2_NM_K / (560.0 * t)) / np.expm1(C2_NM_K / (lam * t))
-    return b
-
-
 def _erfc(x: Array) -> Array:
     """Vectorised erfc (Numerical Recipes' Chebyshev fit, fractional error < 1.2e-7): keeps the
     module numpy-only, like the add-on's core."""

@@ -69,7 +69,7 @@ class Base:
 @functools.lru_cache(maxsize=2)
 def make_base(size: int = BASE_SIZE) -> Base:
     """A 256 px photo of a CD under CIE A (≈1.5 s: the basis cube is rendered once per process)."""
-    from cd_spectra_addon.core.calibration import known_lamp_spd
+    from cd_spectra_addon.core.illuminants import known_lamp_spd
     from training.simulation.render_numpy import render_cube
 
     scene = Scene(load_preset("cd-default").with_image_size(size))

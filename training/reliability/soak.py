@@ -66,7 +66,7 @@ def rss_mb() -> float:
 
 def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
     """(path, should succeed) for the soak's cycle of inputs."""
-    from cd_spectra_addon.core.calibration import known_lamp_spd
+    from cd_spectra_addon.core.illuminants import known_lamp_spd
     from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
     from cd_spectra_addon.core.capture import Scene, load_preset
     from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
