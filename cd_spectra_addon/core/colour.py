@@ -58,6 +58,8 @@ __all__ = [
     "cct_duv",
     "xyz_to_working_rgb",
     "light_colour",
+    "SpectralColour",
+    "spectral_colour",
     "luminance",
     "compare_spds",
 ]
@@ -366,6 +368,36 @@ def light_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> LightColour:
     rgb = np.clip(rgb, 0.0, None)
     rgb = rgb / np.max(rgb)
     return LightColour((float(rgb[0]), float(rgb[1]), float(rgb[2])), out_of_gamut)
+
+
+@dataclass(frozen=True)
+class SpectralColour:
+    """Everything the product reports about a light's colour, in one working space."""
+
+    rgb: tuple[float, float, float]  # scene-linear, largest channel 1, clipped to the gamut
+    out_of_gamut: bool
+    xy: tuple[float, float]
+    cct_k: float | None  # None where CCT is undefined (see cct_duv)
+    duv: float | None
+    working_space: str
+
+
+def spectral_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> SpectralColour:
+    """The colour of one SPD: xy, CCT, Duv and the light's RGB in ``space``, all from the SPD.
+
+    The one computation behind the estimate, the CLI and the Blender lights, so a light's
+    colour and the numbers printed beside it never disagree.
+    """
+    values = np.asarray(spd, dtype=np.float64)
+    if values.ndim != 1:
+        raise CDSpectraError(f"spectral_colour takes one SPD of {N_BANDS} values; got shape {values.shape}")
+    xy = spd_to_xy(values)
+    cct, duv = cct_duv(xy)
+    light = light_colour(values, space)
+    if not all(np.isfinite(c) and c >= 0.0 for c in light.rgb):  # light_colour clips; a guard for NaN
+        raise CDSpectraError(f"the SPD has no valid colour in {space} (got {light.rgb})")
+    return SpectralColour(rgb=light.rgb, out_of_gamut=light.out_of_gamut, xy=(float(xy[0]), float(xy[1])),
+                          cct_k=cct, duv=duv, working_space=space)
 
 
 def luminance(spd: ArrayLike) -> float | NDArray[np.float64]:

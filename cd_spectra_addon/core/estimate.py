@@ -223,10 +223,7 @@ def estimate_image(
     if unusable and mdl is not None and method == "model":
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
-    xyz = colour.spd_to_xyz(spd)
-    xy = colour.xyz_to_xy(xyz)
-    cct, duv = colour.cct_duv(xy)
-    light = colour.light_colour(spd, working_space)
+    light = colour.spectral_colour(spd, working_space)
     if light.out_of_gamut:
         warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
     fit = analysis.fit
@@ -243,7 +240,7 @@ def estimate_image(
               "total": (t4 - t0) * 1e3}
     report(1.0, "Done")
     return Estimate(
-        spd=spd, spd_std=std, xy=(float(xy[0]), float(xy[1])), cct_k=cct, duv=duv,
+        spd=spd, spd_std=std, xy=light.xy, cct_k=light.cct_k, duv=light.duv,
         rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
         disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
         calibration=None if cal is None else cal.name,
