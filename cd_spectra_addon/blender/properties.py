@@ -19,11 +19,10 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.cameras import DEFAULT_CAMERA
+from ..core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
+from ..core.capture import DEFAULT_PRESET
 from ..core.illuminants import KNOWN_LAMPS
 
-DEFAULT_PRESET = "cd-default"  # = training/simulation/render_photo.py's default (tested)
-GENERIC_CAMERA = "generic"
 NO_CALIBRATION = "NONE"
 SPD_SHAPE = (3, 27)  # 81 bands: Blender vector properties allow at most 32 per dimension
 
