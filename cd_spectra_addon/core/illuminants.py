@@ -53,7 +53,8 @@ def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike, c2_nm_k: float =
     """
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     t = np.asarray(temperature_k, dtype=np.float64)
-    return (_REFERENCE_NM / lam) ** 5 * np.expm1(c2_nm_k / (_REFERENCE_NM * t)) / np.expm1(c2_nm_k / (lam * t))
+    return ((_REFERENCE_NM / lam) ** 5 * np.expm1(c2_nm_k / (_REFERENCE_NM * t))
+            / np.expm1(c2_nm_k / (lam * t)))
 
 
 def planck_radiance(wavelengths: ArrayLike, temperature_k: ArrayLike, c2: float) -> NDArray[np.float64]:
@@ -116,8 +117,10 @@ class KnownLamp:
 
 KNOWN_LAMPS: dict[str, KnownLamp] = {
     "incandescent": KnownLamp("Household bulb (CIE A)",
-                              "Incandescent or halogen bulb: close to CIE illuminant A, 2856 K", "planck", 2856.0),
-    "daylight": KnownLamp("Direct sunlight (D55)", "Direct sun on a clear day: CIE D55, 5503 K", "daylight", 5503.0),
+                              "Incandescent or halogen bulb: close to CIE illuminant A, 2856 K",
+                              "planck", 2856.0),
+    "daylight": KnownLamp("Direct sunlight (D55)", "Direct sun on a clear day: CIE D55, 5503 K",
+                          "daylight", 5503.0),
     "daylight-d65": KnownLamp("Overcast daylight (D65)", "Overcast sky: CIE D65, 6504 K", "daylight", 6504.0),
 }
 
@@ -126,5 +129,6 @@ def known_lamp_spd(name: str) -> NDArray[np.float64]:
     """SPD (peak 1) of a lamp in :data:`KNOWN_LAMPS`; CDSpectraError naming the choices otherwise."""
     lamp = KNOWN_LAMPS.get(name)
     if lamp is None:
-        raise CDSpectraError(f"unknown reference lamp {name!r}; choose one of {', '.join(KNOWN_LAMPS)} or an SPD file")
+        raise CDSpectraError(f"unknown reference lamp {name!r}; choose one of {', '.join(KNOWN_LAMPS)} "
+                             "or an SPD file")
     return lamp.spd()

@@ -532,11 +532,14 @@ class ExportFormat:
 
 
 EXPORT_FORMATS: dict[str, ExportFormat] = {f.identifier: f for f in (
-    ExportFormat("CSV", "CSV", ".csv", write_spd_csv, False, "Wavelength and relative power, one row per 5 nm"),
-    ExportFormat("JSON", "JSON", ".json", write_spd_json, True, "The SPD with its colour metrics and provenance"),
-    ExportFormat("PBRT", "pbrt-v4", ".spd", write_spd_pbrt, False, "pbrt-v4 spectrum file (wavelength value pairs)"),
-    ExportFormat("TM2714", "IES TM-27-14", ".xml", write_spd_tm2714, True, "IES TM-27-14 spectral data XML",
-                 needs_module="colour"),
+    ExportFormat("CSV", "CSV", ".csv", write_spd_csv, False,
+                 "Wavelength and relative power, one row per 5 nm"),
+    ExportFormat("JSON", "JSON", ".json", write_spd_json, True,
+                 "The SPD with its colour metrics and provenance"),
+    ExportFormat("PBRT", "pbrt-v4", ".spd", write_spd_pbrt, False,
+                 "pbrt-v4 spectrum file (wavelength value pairs)"),
+    ExportFormat("TM2714", "IES TM-27-14", ".xml", write_spd_tm2714, True,
+                 "IES TM-27-14 spectral data XML", needs_module="colour"),
 )}
 """Every export format by identifier, in menu order."""
 
@@ -545,5 +548,6 @@ def export_format(identifier: str) -> ExportFormat:
     """The registered format ``identifier``; CDSpectraError naming the choices otherwise."""
     fmt = EXPORT_FORMATS.get(identifier)
     if fmt is None:
-        raise CDSpectraError(f"unknown export format {identifier!r}; choose one of {', '.join(EXPORT_FORMATS)}")
+        raise CDSpectraError(f"unknown export format {identifier!r}; "
+                             f"choose one of {', '.join(EXPORT_FORMATS)}")
     return fmt
