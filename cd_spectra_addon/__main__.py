@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from .core.cameras import DEFAULT_CAMERA
+from .core.capture import DEFAULT_PRESET
 
-DEFAULT_PRESET = "cd-default"  # training/simulation/render_photo.py's default (a test keeps them equal)
 EXIT_BAD_INPUT = 2
 
 

@@ -9,11 +9,12 @@ import pytest
 from cd_spectra_addon.core import estimate as est_mod
 from cd_spectra_addon.core.calibration_shot import calibrate_photo
 from cd_spectra_addon.core.calibration import (
-    Calibration, fit_gains, known_lamp_spd, list_calibrations, load_calibration, new_metadata, save_calibration,
+    Calibration, fit_gains, list_calibrations, load_calibration, new_metadata, save_calibration,
 )
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.capture import Scene, load_preset
 from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
 from cd_spectra_addon.core.estimate import estimate_photo
 from cd_spectra_addon.core.model import MODEL_DIR, load_model

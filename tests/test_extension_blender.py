@@ -610,7 +610,7 @@ def test_export_without_estimate_is_refused(addon: Installed, tmp_path: Path) ->
 
 def test_calibration_lamps_are_the_cores(addon: Installed) -> None:
     ours = {item[0] for item in addon.sub("cd_spectra_addon.blender.properties").REFERENCE_LAMPS}
-    assert ours - {"FILE"} == set(addon.sub("cd_spectra_addon.core.calibration").KNOWN_LAMPS)
+    assert ours - {"FILE"} == set(addon.sub("cd_spectra_addon.core.illuminants").KNOWN_LAMPS)
 
 
 def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: pytest.MonkeyPatch,
@@ -632,7 +632,7 @@ def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: py
         == {"FINISHED"}
     (path, reference, name, preset, camera), = calls
     assert (path, name, preset, camera) == (str(photo), "my D5100", "cd-default", "Canon_EOS_5D_Mark_III")
-    assert reference == pytest.approx(cal.known_lamp_spd("incandescent"))
+    assert reference == pytest.approx(addon.sub("cd_spectra_addon.core.illuminants").known_lamp_spd("incandescent"))
     settings = bpy.context.scene.cd_spectra
     assert settings.calibration == "my_D5100"  # as the core named the file
 

@@ -9,9 +9,10 @@ from hypothesis import strategies as st
 from scipy.optimize import nnls as scipy_nnls
 
 from cd_spectra_addon.core import forward_matrix, pose_fit, readout, solve
-from cd_spectra_addon.core.calibration import daylight_spd, fit_gains, known_lamp_spd, planck_spd
+from cd_spectra_addon.core.calibration import fit_gains
 from cd_spectra_addon.core.cameras import load_camera
 from cd_spectra_addon.core.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.illuminants import daylight_spd, known_lamp_spd, planck_spd
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.nnls import nnls_normal

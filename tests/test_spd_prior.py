@@ -26,8 +26,10 @@ from cd_spectra_addon.core.spectral_grid import (
 )
 from training.learning import spd_prior as prior
 from training.learning.spd_prior import FAMILIES, sample_spds
+from training.learning.spd_prior.families import _filter_transmission
+from training.learning.spd_prior.grid import _band_grid, _energy_band
 
-MODULE = Path(prior.__file__)
+MODULES = sorted(Path(prior.__file__).parent.glob("*.py"))
 
 
 def _cct_duv(spds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,8 +148,8 @@ def test_line_energy_lands_on_the_two_nearest_samples():
 @pytest.mark.parametrize(("peak", "fwhm"), [(405.0, 12.0), (450.0, 15.0), (630.0, 20.0), (560.0, 120.0)])
 def test_phosphor_and_led_bands_are_hat_averaged_like_resample_to_grid(peak, fwhm):
     wl = np.arange(300.0, 900.0, 0.02)
-    ref = resample_to_grid(wl, prior._energy_band(np.array(peak), np.array(fwhm), wl))
-    assert np.abs(prior._band_grid(np.array(peak), np.array(fwhm)) - ref).max() < 5e-4 * ref.max()
+    ref = resample_to_grid(wl, _energy_band(np.array(peak), np.array(fwhm), wl))
+    assert np.abs(_band_grid(np.array(peak), np.array(fwhm)) - ref).max() < 5e-4 * ref.max()
 
 
 def test_fine_to_grid_is_resample_to_grid():
@@ -255,7 +257,7 @@ def test_high_pressure_sodium_is_self_reversed_at_589_nm():
 
 def test_filters_only_remove_light():
     rng = np.random.default_rng(15)
-    t = prior._filter_transmission(rng, 500)
+    t = _filter_transmission(rng, 500)
     assert np.all((t > 0) & (t <= 1.0))
     assert np.mean(t.min(axis=1) < 0.5) > 0.5  # filters are not mostly clear glass
 
@@ -275,15 +277,23 @@ def test_speed_100k_in_20_s_scaled_down():
 
 def test_the_module_reads_no_measured_spectra():
     """Hard rule: the prior is physics only; measured lamps and CIE tables are for evaluation."""
-    tree = ast.parse(MODULE.read_text(encoding="utf-8"))
-    roots = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            roots |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom):
-            roots.add((node.module or "").split(".")[0])
-    assert roots <= {"__future__", "math", "collections", "dataclasses", "functools", "typing",
-                     "numpy", "cd_spectra_addon"}, roots
-    text = MODULE.read_text(encoding="utf-8")
-    for banned in ("spds-validation", "SDS_ILLUMINANTS", "SDS_LIGHT_SOURCES", "open(", "np.load", "loadtxt"):
-        assert banned not in text, banned
+    assert {m.name for m in MODULES} == {"__init__.py", "grid.py", "white_point.py", "families.py", "sampling.py"}
+    for module in MODULES:
+        tree = ast.parse(module.read_text(encoding="utf-8"))
+        roots = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                roots |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                module_name = node.module or ""
+                roots.add(module_name.split(".")[0])
+                if module_name.split(".")[0] in ("training", "cd_spectra_addon"):  # itself and the core only
+                    assert module_name.startswith(("training.learning.spd_prior.", "cd_spectra_addon.core.")), module_name
+                if node.module == "cd_spectra_addon.core.illuminants":  # Planck, not CIE daylight
+                    assert {a.name for a in node.names} <= {"planck", "C2_NM_K"}, module.name
+        assert roots <= {"__future__", "math", "collections", "dataclasses", "functools", "typing",
+                         "numpy", "cd_spectra_addon", "training"}, (module.name, roots)
+        text = module.read_text(encoding="utf-8")
+        for banned in ("spds-validation", "SDS_ILLUMINANTS", "SDS_LIGHT_SOURCES", "open(", "np.load", "loadtxt",
+                       "daylight_spd", "known_lamp"):
+            assert banned not in text, (module.name, banned)

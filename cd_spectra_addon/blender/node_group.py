@@ -14,13 +14,12 @@ that use it), so a .blend round-trips without the add-on.
 from __future__ import annotations
 
 import hashlib
-import math
 import struct
-from dataclasses import dataclass
 from typing import Any, Sequence
 
 import bpy
 
+from ..core.colour import SpectralColour, spectral_colour  # the colour of an SPD is the core's
 from ..core.spectral_grid import N_BANDS, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
 
 GROUP_PREFIX = "CD Spectra SPD"
@@ -32,42 +31,6 @@ WAVELENGTH_NODE = "Wavelength to curve x"
 WAVELENGTH_SOCKET = "Wavelength"
 COLOUR_SOCKET = "Color"
 POWER_SOCKET = "Power"
-
-
-@dataclass(frozen=True)
-class SpectralColour:
-    """What the core says about an SPD's colour, in one working space."""
-
-    rgb: tuple[float, float, float]  # scene-linear, max 1
-    out_of_gamut: bool
-    xy: tuple[float, float]
-    cct_k: float | None
-    duv: float | None
-    working_space: str
-
-
-def spectral_colour(spd: Sequence[float], space: str) -> SpectralColour:
-    """Colour of an SPD by the core's conversion (the one the CLI and the estimate use)."""
-    import numpy as np
-
-    from ..core import colour
-
-    values = np.asarray(spd, dtype=np.float64)
-    rgb, out_of_gamut = colour.light_colour(values, space)
-    xyz = colour.spd_to_xyz(values)
-    xy = colour.xyz_to_xy(xyz)
-    cct, duv = colour.cct_duv(values)
-    rgb_t = tuple(float(c) for c in rgb)
-    if len(rgb_t) != 3 or not all(math.isfinite(c) and c >= 0.0 for c in rgb_t):
-        raise ValueError(f"the SPD has no valid colour in {space} (got {rgb_t})")
-    return SpectralColour(
-        rgb=(rgb_t[0], rgb_t[1], rgb_t[2]),
-        out_of_gamut=bool(out_of_gamut),
-        xy=(float(xy[0]), float(xy[1])),
-        cct_k=None if cct is None or not math.isfinite(cct) else float(cct),
-        duv=None if duv is None or not math.isfinite(duv) else float(duv),
-        working_space=space,
-    )
 
 
 def spd_hash(spd: Sequence[float]) -> str:

@@ -19,10 +19,10 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.cameras import DEFAULT_CAMERA
+from ..core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
+from ..core.capture import DEFAULT_PRESET
+from ..core.illuminants import KNOWN_LAMPS
 
-DEFAULT_PRESET = "cd-default"  # = training/simulation/render_photo.py's default (tested)
-GENERIC_CAMERA = "generic"
 NO_CALIBRATION = "NONE"
 SPD_SHAPE = (3, 27)  # 81 bands: Blender vector properties allow at most 32 per dimension
 
@@ -36,13 +36,10 @@ LIGHT_TYPES = [
     ("SUN", "Sun", "Sun light (daylight, far sources)", "LIGHT_SUN", 3),
 ]
 
-# Identifiers = core.calibration.KNOWN_LAMPS (tested), plus a metered spectrum file.
+# The core's known lamps (one table), plus a metered spectrum file.
 REFERENCE_LAMPS = [
-    ("incandescent", "Household bulb (CIE A)",
-     "Incandescent or halogen bulb: close to CIE illuminant A, 2856 K", 0),
-    ("daylight", "Direct sunlight (D55)", "Direct sun on a clear day: CIE D55, 5503 K", 1),
-    ("daylight-d65", "Overcast daylight (D65)", "Overcast sky: CIE D65, 6504 K", 2),
-    ("FILE", "Spectrum file", "The lamp's spectrum measured by a meter (CSV, JSON, pbrt, TM-27-14)", 3),
+    *((key, lamp.label, lamp.description, i) for i, (key, lamp) in enumerate(KNOWN_LAMPS.items())),
+    ("FILE", "Spectrum file", "The lamp's spectrum measured by a meter (CSV, JSON, pbrt, TM-27-14)", len(KNOWN_LAMPS)),
 ]
 
 # Blender keeps only pointers to enum item strings: the lists must stay alive in Python.

@@ -24,68 +24,14 @@ from numpy.typing import NDArray
 
 from .errors import CDSpectraError
 from .readout import FEATURE_LAMBDA_NM, N_FEATURES
-from .spectral_grid import WAVELENGTHS_NM, peak_normalise
 from .user_folders import ENV_DIR, calibration_dir, set_default_directory
 
 GAIN_LIMITS = (0.2, 5.0)
 MIN_SIGNAL = 0.03  # bins whose predicted signal is below 3 % of the peak keep gain 1
 SMOOTH_BINS = 2  # gains are smoothed over ±2 bins (±10 nm of λ₁)
 
-# CIE daylight basis S0, S1, S2 at 380–780 nm / 10 nm (CIE 015:2018 Table 6), for the
-# "daylight" reference of a calibration shot; interpolated to 5 nm.
-_S_WL = np.arange(380.0, 781.0, 10.0)
-_S0 = np.array([63.4, 65.8, 94.8, 104.8, 105.9, 96.8, 113.9, 125.6, 125.5, 121.3, 121.3, 113.5, 113.1,
-                110.8, 106.5, 108.8, 105.3, 104.4, 100.0, 96.0, 95.1, 89.1, 90.5, 90.3, 88.4, 84.0, 85.1,
-                81.9, 82.6, 84.9, 81.3, 71.9, 74.3, 76.4, 63.3, 71.7, 77.0, 65.2, 47.7, 68.6, 65.0])
-_S1 = np.array([38.5, 35.0, 43.4, 46.3, 43.9, 37.1, 36.7, 35.9, 32.6, 27.9, 24.3, 20.1, 16.2, 13.2,
-                8.6, 6.1, 4.2, 1.9, 0.0, -1.6, -3.5, -3.5, -5.8, -7.2, -8.6, -9.5, -10.9, -10.7, -12.0,
-                -14.0, -13.6, -12.0, -13.3, -12.9, -10.6, -11.6, -12.2, -10.2, -7.8, -11.2, -10.4])
-_S2 = np.array([3.0, 1.2, -1.1, -0.5, -0.7, -1.2, -2.6, -2.9, -2.8, -2.6, -2.6, -1.8, -1.5, -1.3,
-                -1.2, -1.0, -0.5, -0.3, 0.0, 0.2, 0.5, 2.1, 3.2, 4.1, 4.7, 5.1, 6.7, 7.3, 8.6, 9.8,
-                10.2, 8.3, 9.6, 8.5, 7.0, 7.6, 8.0, 6.7, 5.2, 7.4, 6.8])
-
-__all__ = ["ENV_DIR", "Calibration", "KNOWN_LAMPS", "known_lamp_spd", "calibration_dir", "set_default_directory", "fit_gains",
+__all__ = ["ENV_DIR", "Calibration", "calibration_dir", "set_default_directory", "fit_gains",
            "save_calibration", "load_calibration", "list_calibrations"]
-
-
-def planck_spd(temperature_k: float) -> NDArray[np.float64]:
-    lam = WAVELENGTHS_NM * 1e-9
-    c2 = 1.4387769e-2
-    return peak_normalise(1.0 / (lam ** 5 * (np.exp(c2 / (lam * temperature_k)) - 1.0)))
-
-
-def daylight_spd(cct_k: float) -> NDArray[np.float64]:
-    """CIE daylight illuminant at a correlated colour temperature (4000–25000 K)."""
-    t = float(cct_k)
-    if not 4000 <= t <= 25000:
-        raise CDSpectraError("daylight calibration needs a CCT between 4000 and 25000 K")
-    if t <= 7000:
-        xd = -4.6070e9 / t ** 3 + 2.9678e6 / t ** 2 + 0.09911e3 / t + 0.244063
-    else:
-        xd = -2.0064e9 / t ** 3 + 1.9018e6 / t ** 2 + 0.24748e3 / t + 0.23704
-    yd = -3.0 * xd * xd + 2.870 * xd - 0.275
-    m = 0.0241 + 0.2562 * xd - 0.7341 * yd
-    m1 = (-1.3515 - 1.7703 * xd + 5.9114 * yd) / m
-    m2 = (0.0300 - 31.4424 * xd + 30.0717 * yd) / m
-    spd = _S0 + m1 * _S1 + m2 * _S2
-    return peak_normalise(np.interp(WAVELENGTHS_NM, _S_WL, spd))
-
-
-KNOWN_LAMPS: dict[str, str] = {
-    "incandescent": "Household incandescent or halogen bulb (CIE A, 2856 K)",
-    "daylight": "Direct sun / daylight (CIE D55)",
-    "daylight-d65": "Overcast daylight (CIE D65)",
-}
-
-
-def known_lamp_spd(name: str) -> NDArray[np.float64]:
-    if name == "incandescent":
-        return planck_spd(2856.0)
-    if name == "daylight":
-        return daylight_spd(5503.0)
-    if name == "daylight-d65":
-        return daylight_spd(6504.0)
-    raise CDSpectraError(f"unknown reference lamp {name!r}; choose one of {', '.join(KNOWN_LAMPS)} or an SPD file")
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,8 @@ from numpy.typing import NDArray
 
 from .analysis import Analysis, prepare
 from .calibration import Calibration, fit_gains, new_metadata, save_calibration
-from .cameras import DEFAULT_CAMERA, CameraProfile
-from .capture import Preset, load_preset
+from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile
+from .capture import DEFAULT_PRESET, Preset, load_preset
 from .errors import CDSpectraError, NoDiscError
 from .estimate import MAX_SIDE, camera_for
 from .images import LinearImage, load_photo
@@ -47,19 +47,19 @@ def gains_from_image(image: LinearImage, reference_spd: NDArray[np.float64], pre
     return fit_gains(analysis.uncalibrated.values, analysis.uncalibrated.valid, predicted), analysis
 
 
-def measure_gains(path: str | Path, reference_spd: NDArray[np.float64], preset: str = "cd-default",
+def measure_gains(path: str | Path, reference_spd: NDArray[np.float64], preset: str = DEFAULT_PRESET,
                   camera: str = "") -> tuple[NDArray[np.float64], str, str, dict[str, Any]]:
     """(gains, preset name, camera name, metadata) from a photo file of a lamp whose SPD is known."""
     _check_reference(reference_spd)  # before the photo is read: the cheaper mistake first
     camera = camera or DEFAULT_CAMERA
     preset_obj = load_preset(preset)
     image = load_photo(path, max_side=MAX_SIDE)
-    cam, generic = camera_for(camera, load_model() if camera == "generic" else None)
+    cam, generic = camera_for(camera, load_model() if camera == GENERIC_CAMERA else None)
     gains, analysis = gains_from_image(image, reference_spd, preset_obj, cam, generic)
     return gains, preset_obj.name, camera, {"rainbow_contrast": float(analysis.fit.rainbow_contrast)}
 
 
-def calibrate_photo(path: str | Path, reference_spd: NDArray[np.float64], name: str, preset: str = "cd-default",
+def calibrate_photo(path: str | Path, reference_spd: NDArray[np.float64], name: str, preset: str = DEFAULT_PRESET,
                     camera: str = "", directory: Path | None = None, reference_name: str = "") -> Path:
     """Measure this camera + disc + set-up's gains from a photo of a lamp whose SPD is known,
     save them as calibration ``name`` and return its path."""

@@ -21,8 +21,9 @@ from .spectral_grid import WAVELENGTHS_NM, resample_to_grid
 
 CAMERA_FILE = Path(__file__).resolve().parent.parent / "cameras" / "cameras.json"
 DEFAULT_CAMERA = "Canon_EOS_5D_Mark_III"
+GENERIC_CAMERA = "generic"  # "my camera is not listed": the model's typical sensitivities
 
-__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "CameraProfile", "camera_names", "load_camera"]
+__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "GENERIC_CAMERA", "CameraProfile", "camera_names", "load_camera"]
 
 
 @dataclass(frozen=True)

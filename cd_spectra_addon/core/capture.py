@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from .errors import CDSpectraError
 
 PRESET_DIR = Path(__file__).resolve().parent.parent / "presets"
+DEFAULT_PRESET = "cd-default"  # the capture a photo is read as unless the user picks another preset
 
 __all__ = [
     "Disc",
@@ -29,6 +30,7 @@ __all__ = [
     "Pose",
     "Scene",
     "PRESET_DIR",
+    "DEFAULT_PRESET",
     "preset_names",
     "load_preset",
 ]

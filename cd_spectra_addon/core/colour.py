@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import CDSpectraError
+from .illuminants import C2_ITS90_NM_K, planck_radiance
 from .spectral_grid import N_BANDS, WAVELENGTHS_NM
 
 __all__ = [
@@ -57,6 +58,8 @@ __all__ = [
     "cct_duv",
     "xyz_to_working_rgb",
     "light_colour",
+    "SpectralColour",
+    "spectral_colour",
     "luminance",
     "compare_spds",
 ]
@@ -99,6 +102,8 @@ def _tables() -> _Tables:
     data = json.loads(TABLES_FILE.read_text(encoding="utf-8"))
     if not np.allclose(data["wavelength_nm"], WAVELENGTHS_NM):
         raise RuntimeError(f"{TABLES_FILE.name} was baked for another wavelength grid")
+    if data["planck_c2_m_k"] != C2_ITS90_NM_K / 1e9:
+        raise RuntimeError(f"{TABLES_FILE.name} was baked for another Planckian locus (c2)")
     planck = data["cmf_planck"]
     wl = np.arange(planck["start_nm"], planck["end_nm"] + planck["step_nm"] / 2, planck["step_nm"])
     table = data["planckian_table"]
@@ -112,7 +117,7 @@ def _tables() -> _Tables:
         cmf_hat=frozen(data["cmf_hat"]),
         cmf_planck=frozen(planck["values"]),
         planck_wavelength_m=frozen(wl * 1e-9),
-        c2=float(data["planck_c2_m_k"]),
+        c2=C2_ITS90_NM_K / 1e9,
         table_t=frozen(table["T"]),
         table_uv=frozen(np.stack([table["u"], table["v"]], axis=-1)),
         k_m=float(data["k_m_lm_per_w"]),
@@ -223,8 +228,7 @@ def planck_uv1960(cct: ArrayLike) -> NDArray[np.float64]:
     temps = np.asarray(cct, dtype=np.float64)
     if not np.all(np.isfinite(temps)) or np.any(temps < 100.0):
         raise CDSpectraError("a Planckian temperature must be finite and at least 100 K")  # else 0/0
-    lam = t.planck_wavelength_m
-    radiance = lam**-5 / np.expm1(t.c2 / (lam * temps[..., None]))
+    radiance = planck_radiance(t.planck_wavelength_m, temps[..., None], t.c2)
     xyz = radiance @ t.cmf_planck
     den = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
     return np.stack([4.0 * xyz[..., 0] / den, 6.0 * xyz[..., 1] / den], axis=-1)
@@ -364,6 +368,36 @@ def light_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> LightColour:
     rgb = np.clip(rgb, 0.0, None)
     rgb = rgb / np.max(rgb)
     return LightColour((float(rgb[0]), float(rgb[1]), float(rgb[2])), out_of_gamut)
+
+
+@dataclass(frozen=True)
+class SpectralColour:
+    """Everything the product reports about a light's colour, in one working space."""
+
+    rgb: tuple[float, float, float]  # scene-linear, largest channel 1, clipped to the gamut
+    out_of_gamut: bool
+    xy: tuple[float, float]
+    cct_k: float | None  # None where CCT is undefined (see cct_duv)
+    duv: float | None
+    working_space: str
+
+
+def spectral_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> SpectralColour:
+    """The colour of one SPD: xy, CCT, Duv and the light's RGB in ``space``, all from the SPD.
+
+    The one computation behind the estimate, the CLI and the Blender lights, so a light's
+    colour and the numbers printed beside it never disagree.
+    """
+    values = np.asarray(spd, dtype=np.float64)
+    if values.ndim != 1:
+        raise CDSpectraError(f"spectral_colour takes one SPD of {N_BANDS} values; got shape {values.shape}")
+    xy = spd_to_xy(values)
+    cct, duv = cct_duv(xy)
+    light = light_colour(values, space)
+    if not all(np.isfinite(c) and c >= 0.0 for c in light.rgb):  # light_colour clips; a guard for NaN
+        raise CDSpectraError(f"the SPD has no valid colour in {space} (got {light.rgb})")
+    return SpectralColour(rgb=light.rgb, out_of_gamut=light.out_of_gamut, xy=(float(xy[0]), float(xy[1])),
+                          cct_k=cct, duv=duv, working_space=space)
 
 
 def luminance(spd: ArrayLike) -> float | NDArray[np.float64]:

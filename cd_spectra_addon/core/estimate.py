@@ -23,8 +23,8 @@ from . import colour
 from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
-from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
-from .capture import Preset, load_preset
+from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
+from .capture import DEFAULT_PRESET, Preset, load_preset
 from .errors import CDSpectraError, PhotoError
 from .images import LinearImage, load_photo
 from .model import SpectralModel, load_model
@@ -35,7 +35,6 @@ from .solve import GaussianPrior, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
 MAX_SIDE = 1024
-GENERIC = "generic"
 # The inverse assumes the camera looks straight at the disc's centre. With the disc off the
 # image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
 # 400–700 nm (CIE A) goes 0.004 → 0.03 at 4 mm, 0.07 at 8 mm, 0.14 at 16 mm, 0.25 at 24 mm
@@ -44,15 +43,15 @@ CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "GENERIC", "estimate_image", "estimate_photo", "camera_for"]
+__all__ = ["MAX_SIDE", "estimate_image", "estimate_photo", "camera_for"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
     """The sensitivities to solve with and whether they are the generic (unknown camera) ones."""
-    if name == GENERIC:
+    if name == GENERIC_CAMERA:
         if model is None or "generic_camera" not in model.metadata:
             raise CDSpectraError("the generic camera profile comes with the model, which is not available")
-        return CameraProfile(GENERIC, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
+        return CameraProfile(GENERIC_CAMERA, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
     return load_camera(name), False
 
 
@@ -169,7 +168,7 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
 def estimate_image(
     image: LinearImage,
     *,
-    preset: str | Preset = "cd-default",
+    preset: str | Preset = DEFAULT_PRESET,
     camera: str = DEFAULT_CAMERA,
     calibration: str | Calibration | None = None,
     working_space: str = "Linear Rec.709",
@@ -223,10 +222,7 @@ def estimate_image(
     if unusable and mdl is not None and method == "model":
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
-    xyz = colour.spd_to_xyz(spd)
-    xy = colour.xyz_to_xy(xyz)
-    cct, duv = colour.cct_duv(xy)
-    light = colour.light_colour(spd, working_space)
+    light = colour.spectral_colour(spd, working_space)
     if light.out_of_gamut:
         warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
     fit = analysis.fit
@@ -243,7 +239,7 @@ def estimate_image(
               "total": (t4 - t0) * 1e3}
     report(1.0, "Done")
     return Estimate(
-        spd=spd, spd_std=std, xy=(float(xy[0]), float(xy[1])), cct_k=cct, duv=duv,
+        spd=spd, spd_std=std, xy=light.xy, cct_k=light.cct_k, duv=light.duv,
         rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
         disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
         calibration=None if cal is None else cal.name,
@@ -259,7 +255,7 @@ def estimate_image(
 def estimate_photo(
     path: str | Path,
     *,
-    preset: str | Preset = "cd-default",
+    preset: str | Preset = DEFAULT_PRESET,
     camera: str = DEFAULT_CAMERA,
     calibration: str | Calibration | None = None,
     working_space: str = "Linear Rec.709",

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .capture import DEFAULT_PRESET
 from .spectral_grid import WAVELENGTHS_NM
 
 __all__ = ["DiscFit", "Estimate"]
@@ -51,7 +52,7 @@ class Estimate:
     disc: DiscFit
     timing_ms: dict[str, float]
     source: str = ""
-    preset: str = "cd-default"
+    preset: str = DEFAULT_PRESET
     camera: str = ""
     calibration: str | None = None
     model_version: str = ""

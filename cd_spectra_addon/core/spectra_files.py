@@ -44,9 +44,12 @@ JSON_FORMAT = "cd-spectra-spd"
 JSON_VERSION = 1
 
 __all__ = [
+    "EXPORT_FORMATS",
     "JSON_FORMAT",
     "JSON_VERSION",
+    "ExportFormat",
     "SpectraTable",
+    "export_format",
     "read_reference_spd",
     "read_spd_json",
     "read_spd_pbrt",
@@ -490,3 +493,61 @@ def read_reference_spd(path: str | Path, column: str | None = None) -> tuple[str
         raise CDSpectraError(f"{path.name} has no spectrum {column!r}; it has {', '.join(table.names)}")
     name = path.stem if table.names == ["spd1"] else table.names[index]  # no header: the file's name
     return name, _checked_reference(path, table.wavelengths_nm, table.values[index])
+
+
+# --- export registry ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ExportFormat:
+    """A file format an SPD can be exported to: what menus show and how to write it."""
+
+    identifier: str
+    label: str
+    extension: str
+    writer: Callable[..., Path]
+    takes_metadata: bool  # the writer stores the estimate's colour metrics and provenance too
+    description: str
+    needs_module: str | None = None  # a package the writer imports, absent inside Blender
+
+    def available(self) -> bool:
+        """Whether this Python can write the format (TM-27-14 needs colour-science)."""
+        if self.needs_module is None:
+            return True
+        import importlib.util
+
+        return importlib.util.find_spec(self.needs_module) is not None
+
+    def write(self, path: str | Path, spd: ArrayLike, metadata: Mapping[str, Any]) -> Path:
+        """Write one SPD at ``path`` with this format's extension (replacing any other), named
+        ``metadata["name"]`` or after the file; atomic like every writer here."""
+        target = Path(path)
+        if target.suffix.lower() != self.extension:
+            target = target.with_suffix(self.extension)
+        name = str(metadata.get("name") or target.stem)
+        values = np.asarray(spd, dtype=np.float64)
+        if self.takes_metadata:
+            return Path(self.writer(target, values, name=name, metadata=dict(metadata)))
+        return Path(self.writer(target, values, name=name))
+
+
+EXPORT_FORMATS: dict[str, ExportFormat] = {f.identifier: f for f in (
+    ExportFormat("CSV", "CSV", ".csv", write_spd_csv, False,
+                 "Wavelength and relative power, one row per 5 nm"),
+    ExportFormat("JSON", "JSON", ".json", write_spd_json, True,
+                 "The SPD with its colour metrics and provenance"),
+    ExportFormat("PBRT", "pbrt-v4", ".spd", write_spd_pbrt, False,
+                 "pbrt-v4 spectrum file (wavelength value pairs)"),
+    ExportFormat("TM2714", "IES TM-27-14", ".xml", write_spd_tm2714, True,
+                 "IES TM-27-14 spectral data XML", needs_module="colour"),
+)}
+"""Every export format by identifier, in menu order."""
+
+
+def export_format(identifier: str) -> ExportFormat:
+    """The registered format ``identifier``; CDSpectraError naming the choices otherwise."""
+    fmt = EXPORT_FORMATS.get(identifier)
+    if fmt is None:
+        raise CDSpectraError(f"unknown export format {identifier!r}; "
+                             f"choose one of {', '.join(EXPORT_FORMATS)}")
+    return fmt

@@ -27,7 +27,7 @@ import numpy as np
 from PIL import Image
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.estimate import estimate_image, estimate_photo
 from cd_spectra_addon.core.images import load_photo
@@ -68,7 +68,7 @@ def _points(quick: bool) -> list[dict[str, Any]]:
 
 def error_vs_time(quick: bool) -> list[dict[str, Any]]:
     size = 256 if quick else 768
-    scene = Scene(load_preset("cd-default").with_image_size(size))
+    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
     cube, _ = basis_cube(scene, "numpy", log=print)
     meter = photo.track_mask(scene)
     lamps = lspdd_lamps()[:: 40 if quick else 5]
@@ -109,7 +109,7 @@ def speed(quick: bool) -> dict[str, Any]:
     """24 MP JPEG to SPD vs a bare decode; one inference; enabling the add-on."""
     out: dict[str, Any] = {}
     w, h = (1536, 1024) if quick else (6000, 4000)
-    scene = Scene(load_preset("cd-default").with_image_size(768, 512))
+    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(768, 512))
     cube, _ = basis_cube(scene, "numpy", log=print)
     lamp = lspdd_lamps()[3]
     img, _ = photo.synthesize(cube, lamp.spd, load_camera(DEFAULT_CAMERA), 1.0, 0.01, np.random.default_rng(0),

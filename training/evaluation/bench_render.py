@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from training.simulation import cycles_scene, photo
@@ -50,7 +50,7 @@ def main() -> None:
     cube_sizes = (96,) if args.quick else (256, 512)
     spps = (1, 4, 16) if args.quick else (1, 2, 4, 8, 16, 32, 64, 128)
     converged_spp = 64 if args.quick else 1024
-    preset = load_preset("cd-default")
+    preset = load_preset(DEFAULT_PRESET)
     shipped_spp = preset.samples
     probe = np.array([400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0, 750.0, 780.0])  # 3 renders
 

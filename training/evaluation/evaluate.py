@@ -32,11 +32,12 @@ import numpy as np
 
 from cd_spectra_addon.core import colour as colour_core
 from cd_spectra_addon.core.analysis import focal_px_for
-from cd_spectra_addon.core.calibration import Calibration, known_lamp_spd, new_metadata
+from cd_spectra_addon.core.calibration import Calibration, new_metadata
 from cd_spectra_addon.core.calibration_shot import gains_from_image
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.capture import Disc, Scene, load_preset
+from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Disc, Scene, load_preset
 from cd_spectra_addon.core.estimate import estimate_image
+from cd_spectra_addon.core.illuminants import known_lamp_spd
 from cd_spectra_addon.core.pose_fit import fit_pose
 from cd_spectra_addon.core.images import load_photo
 from cd_spectra_addon.core.model import load_model
@@ -228,12 +229,12 @@ def rendering_check(lamps: list[Lamp], estimates: list[np.ndarray]) -> dict[str,
     from training.simulation.render_numpy import render_cube
 
     materials = {
-        "CD": Scene(load_preset("cd-default").with_image_size(128)),
-        "DVD": Scene(replace(load_preset("cd-default"), name="dvd",
+        "CD": Scene(load_preset(DEFAULT_PRESET).with_image_size(128)),
+        "DVD": Scene(replace(load_preset(DEFAULT_PRESET), name="dvd",
                              disc=replace(Disc(), pitch_um=0.74, groove_height_um=0.06),
-                             camera=replace(load_preset("cd-default").camera, distance_mm=80.0, focal_length_mm=20.0,
+                             camera=replace(load_preset(DEFAULT_PRESET).camera, distance_mm=80.0, focal_length_mm=20.0,
                                             image_size_px=(128, 128)),
-                             light=replace(load_preset("cd-default").light, position_mm=(0.0, 0.0, 80.0)))),
+                             light=replace(load_preset(DEFAULT_PRESET).light, position_mm=(0.0, 0.0, 80.0)))),
     }
     to_rgb = colour_core.xyz_to_working_rgb(np.eye(3), "Linear Rec.709")  # rows: X, Y, Z → RGB
     xyz_cmf = np.stack([colour_core.spd_to_xyz(np.eye(81)[i]) for i in range(81)])  # (81, 3)
@@ -321,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
         conds += [Condition("noise 3 %", rob_nominal, noise=0.03), Condition("noise 0 %", rob_nominal, noise=0.0)]
         conds += [Condition("under-exposed ×0.25", rob_nominal, exposure=0.25),
                   Condition("over-exposed ×2 (clipped)", rob_nominal, exposure=2.0)]
-        conds += [Condition("generic camera profile", rob_nominal, profile="generic")]
+        conds += [Condition("generic camera profile", rob_nominal, profile=GENERIC_CAMERA)]
         conds += [Condition(f"centre error {d:g} px", rob_nominal, center_error_px=d) for d in (1.0, 2.0, 4.0)]
         if not args.quick:
             conds += [Condition(f"camera offset {d:g} mm", replace(rob_nominal, name=f"cam{d}", camera_offset_mm=(d, 0.0)))

@@ -71,7 +71,7 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         "",
         f"- **Data:** {t['train_samples'] + t['val_samples']} synthetic photos ({t['n_per_cube']} per capture geometry ×"
         f" {len(t['cubes'])} geometries: {', '.join(t['cubes'])}), basis cubes rendered by Cycles ({t['engine']});",
-        "  SPDs from `training/learning/spd_prior.py` (17 physical lamp families, no measured spectra), random training",
+        "  SPDs from `training/learning/spd_prior/` (17 physical lamp families, no measured spectra), random training",
         "  cameras with ±2 % gain and ±1 nm shift errors, exposure 0.3–2× (clipping), 0.2–3 % noise, ambient",
         "  light, EXR / 16-bit PNG / 8-bit PNG / JPEG q75–98, read back through the product's loader; profiles taken",
         "  at geometries the pose fit produced. Data hash `" + meta["data_hash"] + "`.",

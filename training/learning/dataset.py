@@ -25,8 +25,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
-from cd_spectra_addon.core.cameras import CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.capture import Pose, Preset, Scene, load_preset
+from cd_spectra_addon.core.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Preset, Scene, load_preset
 from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.images import LinearImage, load_photo
@@ -40,7 +40,6 @@ from training.simulation.basis import REPO, basis_cube
 from training.learning.spd_prior import gaussian_prior, sample_spds
 
 DATA_DIR = REPO / "data" / "dataset"
-GENERIC = "generic"
 
 __all__ = ["CubeSpec", "CUBE_SETS", "camera_split", "generic_sensitivities", "build_dataset", "Degradation"]
 
@@ -50,7 +49,7 @@ class CubeSpec:
     """One capture geometry of the training set."""
 
     name: str
-    preset: str = "cd-default"
+    preset: str = DEFAULT_PRESET
     camera_offset_mm: tuple[float, float] = (0.0, 0.0)
     light_offset_mm: tuple[float, float] = (0.0, 0.0)
     tilt_deg: tuple[float, float] = (0.0, 0.0)
@@ -237,7 +236,7 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             loaded = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
             variant = variants[int(rng.integers(len(variants)))]
             use_generic = rng.random() < deg.generic_probability
-            solve_camera = CameraProfile(GENERIC, generic) if use_generic else camera
+            solve_camera = CameraProfile(GENERIC_CAMERA, generic) if use_generic else camera
             features = sample_features(loaded, preset, solve_camera, use_generic, variant.fit, variant.pixels,
                                        (prior, precision))
             if features is None:

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError, PhotoError
 from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_NAME, layout_hash
 from cd_spectra_addon.core.spectral_grid import N_BANDS
@@ -69,10 +69,10 @@ class Base:
 @functools.lru_cache(maxsize=2)
 def make_base(size: int = BASE_SIZE) -> Base:
     """A 256 px photo of a CD under CIE A (≈1.5 s: the basis cube is rendered once per process)."""
-    from cd_spectra_addon.core.calibration import known_lamp_spd
+    from cd_spectra_addon.core.illuminants import known_lamp_spd
     from training.simulation.render_numpy import render_cube
 
-    scene = Scene(load_preset("cd-default").with_image_size(size))
+    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
     cube = render_cube(scene, supersample=2)
     spd = known_lamp_spd("incandescent")
     meter = photo.track_mask(scene)
@@ -540,7 +540,7 @@ def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outc
     from cd_spectra_addon.core.estimate import estimate_photo
     from cd_spectra_addon.core.model import MODEL_DIR
 
-    preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else "cd-default"
+    preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else DEFAULT_PRESET
     if model_dir is not None:
         model: Any = str(model_dir / f"{MODEL_NAME}.onnx")
     else:

@@ -166,13 +166,13 @@ def _model() -> Any:
 
 
 def run_sweeps() -> list[str]:
-    from cd_spectra_addon.core.capture import load_preset
+    from cd_spectra_addon.core.capture import DEFAULT_PRESET, load_preset
     from training.simulation import photo
 
     base = hostile.make_base()
     lamps = {"CIE A": base.spd, "warm LED": _warm_led()}
     shots = {name: base.shoot(spd) for name, spd in lamps.items()}
-    cam = load_preset("cd-default").camera
+    cam = load_preset(DEFAULT_PRESET).camera
     px_per_mm = cam.focal_length_mm / cam.sensor_width_mm * base.linear.shape[1] / cam.distance_mm
 
     def png(image: np.ndarray, name: str, exif: bytes | None = base.exif) -> Any:

@@ -66,14 +66,14 @@ def rss_mb() -> float:
 
 def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
     """(path, should succeed) for the soak's cycle of inputs."""
-    from cd_spectra_addon.core.calibration import known_lamp_spd
     from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-    from cd_spectra_addon.core.capture import Scene, load_preset
+    from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
+    from cd_spectra_addon.core.illuminants import known_lamp_spd
     from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
     from training.simulation import photo
     from training.simulation.render_numpy import render_cube
 
-    scene = Scene(load_preset("cd-default").with_image_size(size))
+    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
     cube = render_cube(scene, supersample=2)
     cam = load_camera(DEFAULT_CAMERA)
     meter = photo.track_mask(scene)

@@ -14,6 +14,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from cd_spectra_addon.core.capture import DEFAULT_PRESET
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from training.simulation.basis import ENGINES, render_basis
@@ -23,7 +24,7 @@ from training.simulation.spectral_exr import write_spectral_exr
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m training.simulation.render_basis", description=__doc__.splitlines()[0])
-    p.add_argument("--preset", default="cd-default")
+    p.add_argument("--preset", default=DEFAULT_PRESET)
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--size", type=int, nargs="+", metavar="PX")
     p.add_argument("--samples", type=int, help="Cycles samples per pixel (default: preset)")

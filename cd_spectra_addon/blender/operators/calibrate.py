@@ -8,6 +8,7 @@ from typing import Any
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
+from ...core.capture import DEFAULT_PRESET
 from ...core.errors import CDSpectraError
 from .. import state
 from ..progress import progress
@@ -73,7 +74,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
             try:
                 update(0.0, "calibrating")
                 reference = np.asarray(self._reference_spd(), dtype=np.float64)
-                profile = calibrate_photo(photo, reference, name, settings.preset or "cd-default",
+                profile = calibrate_photo(photo, reference, name, settings.preset or DEFAULT_PRESET,
                                           state.camera_choice(settings.camera))
             except (CDSpectraError, ValueError, OSError) as exc:
                 self.report({"ERROR"}, f"Calibration failed: {exc}")

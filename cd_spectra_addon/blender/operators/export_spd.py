@@ -8,8 +8,9 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper
 
+from ...core.errors import CDSpectraError
 from .. import state
-from ..spectra_io import export_formats, write_spd
+from ..spectra_io import export_format, export_formats, write_spd
 
 _ITEMS: list[tuple[str, str, str]] = []
 
@@ -36,7 +37,12 @@ class CDSPECTRA_OT_export_spd(bpy.types.Operator, ExportHelper):
         return state.has_estimate(cls, context)
 
     def _format(self):
-        return next((f for f in export_formats() if f.identifier == self.file_format), None)
+        """The chosen format where this build can write it, else None ("NONE" or no colour-science)."""
+        try:
+            fmt = export_format(self.file_format)
+        except CDSpectraError:
+            return None
+        return fmt if fmt.available() else None
 
     def check(self, context: bpy.types.Context) -> bool:
         fmt = self._format()

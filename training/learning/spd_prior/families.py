@@ -1,11 +1,7 @@
-"""The SPD prior: synthetic lamp spectra for training, built from physics, not from measurements.
+"""The prior's lamp families: how each kind of source makes light, one generator per family.
 
-The model learns only from spectra drawn here and is judged on measured lamps it never saw, so
-each family describes *how a kind of source makes light* (thermal emission, atomic lines,
-phosphor bands, atmospheric absorption, filters) with parameter ranges taken from physics and
-published product numbers (line wavelengths, phosphor peaks and widths). Nothing is read, fitted,
-tuned or selected on measured SPDs or on CIE/colour-science illuminant tables; those are kept for
-evaluation only.
+Line lists (NIST wavelengths, typical strengths), the random building blocks (line groups,
+random line forests) and the generators, registered by name for :mod:`.sampling`.
 
 Families (label: what and why)
 
@@ -31,20 +27,6 @@ Families (label: what and why)
 - ``filtered``: any physical family behind a gel / filter (long-, short-, band-pass, notch,
   mired-shift CTO/CTB, random dye curve) at a random density.
 
-Grid handling: a grid sample stands for a 5 nm hat (see :mod:`cd_spectra_addon.core.spectral_grid`),
-and every component is hat-averaged as ``resample_to_grid`` would from a fine sampling, only
-cheaper (100 000 spectra must take seconds):
-
-- narrow lines (0.3–8 nm): in closed form (the second difference of the profile's second
-  antiderivative), tabulated over offset × width, plus a series for Lorentzian far wings;
-- LED / phosphor bands (FWHM ≥ 12 nm): a 3-point rule with the hat's moments (error < 2e-4);
-- products with narrow structure (daylight's absorption bands, the HPS self-reversal): a 0.5 nm
-  grid and a matrix made *by* ``resample_to_grid`` (it is linear);
-- slowly varying curves (Planck, filters, random smooth curves): the grid samples themselves
-  (the hat changes them by ~Δ²f''/12, far below 1e-3).
-
-The tests compare each path against ``resample_to_grid`` of a 0.01–0.02 nm sampling.
-
 Default family weights (:data:`DEFAULT_WEIGHTS`, normalised at use): about a fifth generic
 (the paper's categories), a quarter LEDs, the rest thermal, daylight, discharge and filtered, so
 every real lamp type is well represented without one dominating.
@@ -53,60 +35,36 @@ every real lamp type is well represented without one dominating.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
+from numpy.typing import NDArray
 
-from cd_spectra_addon.core.solve import GaussianPrior
-from numpy.typing import ArrayLike, NDArray
+# Planck's law and c2 only: the prior takes no CIE illuminant from that module (tested).
+from cd_spectra_addon.core.illuminants import C2_NM_K, planck
+from cd_spectra_addon.core.spectral_grid import N_BANDS, peak_normalise
 
-from cd_spectra_addon.core.spectral_grid import (
-    N_BANDS,
-    WAVELENGTH_STEP_NM,
-    WAVELENGTHS_NM,
-    peak_normalise,
-    resample_to_grid,
+from training.learning.spd_prior.grid import (
+    _D,
+    FINE_NM,
+    _FWHM_TO_SIGMA,
+    GRID,
+    _HAT3_NM,
+    _band_grid,
+    _energy_band,
+    fine_to_grid,
+    _gauss,
+    _hat3,
+    lines_on_grid,
+    _render_lines,
+    _sigmoid,
 )
+from training.learning.spd_prior.white_point import _cct_duv, _white_mix
 
 Array = NDArray[np.float64]
 Generator = np.random.Generator
 
-__all__ = [
-    "FAMILIES",
-    "DEFAULT_WEIGHTS",
-    "FINE_NM",
-    "HG_LINES_NM",
-    "sample_spds",
-    "planck",
-    "lines_on_grid",
-    "fine_to_grid",
-    "smooth",
-    "smooth_noise",
-    "spiky",
-    "blackbody",
-    "incandescent",
-    "daylight",
-    "led_white",
-    "led_violet",
-    "led_rgb",
-    "fluorescent_tri",
-    "fluorescent_halo",
-    "metal_halide",
-    "hps",
-    "lps",
-    "mercury",
-    "xenon",
-    "filtered",
-]
-
-GRID = WAVELENGTHS_NM
-_D = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
-FINE_STEP_NM = 0.5
-FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
-C2_NM_K = 1.438776877e7  # second radiation constant hc/k (nm·K)
-_FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 _CHUNK = 4096  # rows per generator call: bounds the (rows, components, fine) temporaries
 
 # ---------------------------------------------------------------------------------------------
@@ -149,324 +107,6 @@ _EU_YVO4 = ((593.5, 0.1), (615.0, 0.4), (619.0, 1.0), (697.0, 0.04), (702.0, 0.0
 _MN4_GERMANATE = ((650.0, 0.3), (655.0, 0.5), (658.0, 1.0), (662.0, 0.4))
 # K₂SiF₆:Mn⁴⁺ (KSF) narrow red phosphor.
 _KSF = ((609.5, 0.2), (613.0, 0.3), (631.0, 1.0), (635.5, 0.4), (647.5, 0.25))
-
-
-# ---------------------------------------------------------------------------------------------
-# Physics primitives
-# ---------------------------------------------------------------------------------------------
-def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike) -> Array:
-    """Planck's spectral radiance shape λ⁻⁵/(exp(c₂/λT)−1), scaled to 1 at 560 nm.
-
-    ``temperature_k`` broadcasts against the wavelengths' last axis (pass shape (n, 1) for rows).
-    """
-    lam = np.asarray(wavelengths_nm, dtype=np.float64)
-    t = np.asarray(temperature_k, dtype=np.float64)
-    b = (560.0 / lam) ** 5 * np.expm1(C2_NM_K / (560.0 * t)) / np.expm1(C2_NM_K / (lam * t))
-    return b
-
-
-def _erfc(x: Array) -> Array:
-    """Vectorised erfc (Numerical Recipes' Chebyshev fit, fractional error < 1.2e-7): keeps the
-    module numpy-only, like the add-on's core."""
-    z = np.abs(x)
-    t = 1.0 / (1.0 + 0.5 * z)
-    r = t * np.exp(-z * z - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (
-        -0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (
-            -0.82215223 + t * 0.17087277)))))))))
-    return np.where(x >= 0, r, 2.0 - r)
-
-
-def _gauss_f2(t: Array, sigma: Array) -> Array:
-    """Second antiderivative of a unit-area Gaussian: t·Φ(t/σ) + σ·φ(t/σ)."""
-    u = t / sigma
-    return t * 0.5 * _erfc(-u / math.sqrt(2.0)) + sigma * np.exp(-0.5 * u * u) / math.sqrt(2 * math.pi)
-
-
-def _lorentz_f2(t: Array, gamma: Array) -> Array:
-    """Second antiderivative of a unit-area Lorentzian (HWHM γ)."""
-    return (t / math.pi) * np.arctan(t / gamma) - gamma / (2 * math.pi) * np.log(t * t + gamma * gamma) \
-        + 0.5 * t
-
-
-# Lines are hat-integrated exactly on the 2·WIN+1 samples around them (from a table, below);
-# beyond, the Gaussian part is < 1e-5 of the line (FWHM ≤ 8 nm) and the Lorentzian part uses
-# its far-field series.
-_WIN = 4
-_MIN_LINE_FWHM = 0.3
-_MAX_LINE_FWHM = 8.0
-_TAB_DELTA = np.linspace(-0.5 * _D, 0.5 * _D, 201)  # line centre minus its nearest grid sample
-_TAB_LOGW = np.linspace(math.log(_MIN_LINE_FWHM), math.log(_MAX_LINE_FWHM), 129)
-_FAR_PAD = 20  # far field of lines up to 100 nm outside the grid
-
-
-def _window_exact(delta: Array, fwhm: Array, lorentz: bool) -> Array:
-    """Exact hat averages of a unit-area line at offset ``delta`` from grid sample 0, on samples
-    −WIN..WIN: the hat is the second difference of a ramp, so hat ∗ profile is the second
-    difference of the profile's second antiderivative at neighbouring samples."""
-    k = np.arange(-_WIN - 1, _WIN + 2)
-    t = _D * k[None, :] - delta[:, None]
-    f2 = _lorentz_f2(t, 0.5 * fwhm[:, None]) if lorentz else _gauss_f2(t, fwhm[:, None] * _FWHM_TO_SIGMA)
-    return (f2[:, 2:] - 2.0 * f2[:, 1:-1] + f2[:, :-2]) / (_D * _D)
-
-
-@cache
-def _window_tables() -> Array:
-    """(δ, log FWHM, {Gauss, Lorentz}, 2·WIN+1) table of :func:`_window_exact`."""
-    d, lw = np.meshgrid(_TAB_DELTA, _TAB_LOGW, indexing="ij")
-    w = np.exp(lw.ravel())
-    shape = d.shape + (2 * _WIN + 1,)
-    g = _window_exact(d.ravel(), w, False).reshape(shape)
-    lor = _window_exact(d.ravel(), w, True).reshape(shape)
-    return np.ascontiguousarray(np.stack([g, lor], axis=2))
-
-
-@cache
-def _far_kernels() -> Array:
-    """(channel, padded source sample, grid sample) kernels of the Lorentzian far field.
-
-    For |x| > WIN·Δ the hat-averaged unit Lorentzian is (γ/π)[x⁻² + (3μ₂−γ²)x⁻⁴ + (5μ₄−10μ₂γ²+γ⁴)x⁻⁶]
-    (μ₂, μ₄ the hat's moments), and x = kΔ − δ is expanded in δ/(kΔ) ≤ 0.1; each term is a
-    per-line amplitude times a kernel in k. Relative error ≲ 1e-4.
-    """
-    src = np.arange(-_FAR_PAD, N_BANDS + _FAR_PAD)
-    k = (np.arange(N_BANDS)[None, :] - src[:, None]).astype(np.float64)
-    far = np.abs(k) > _WIN
-    kd = np.where(far, k * _D, 1.0)
-    kernels = [(q + 1) * kd ** -(2.0 + q) for q in range(6)]
-    kernels += [math.comb(q + 3, 3) * kd ** -(4.0 + q) for q in range(3)]
-    kernels += [kd**-6.0]
-    return np.stack([np.where(far, kern, 0.0) for kern in kernels])
-
-
-def lines_on_grid(
-    centre_nm: ArrayLike,
-    fwhm_nm: ArrayLike,
-    area: ArrayLike,
-    lorentz_fraction: ArrayLike = 0.0,
-) -> Array:
-    """Hat-averaged grid values of pseudo-Voigt lines, summed over the last axis: (..., 81).
-
-    Inputs broadcast to (..., L); ``area`` is each line's energy (value × nm), so
-    ``Σ grid × 5 nm`` gives it back (minus the wings outside 380–780 nm). FWHM 0.3–8 nm.
-    This is what ``resample_to_grid`` computes from a finely sampled line, without the samples.
-    """
-    arrs = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=np.float64))
-                                 for v in (centre_nm, fwhm_nm, area, lorentz_fraction)))
-    c, w, a, eta = arrs
-    if np.any(w > _MAX_LINE_FWHM) or np.any(w < _MIN_LINE_FWHM):
-        raise ValueError(f"line FWHM must be in [{_MIN_LINE_FWHM}, {_MAX_LINE_FWHM}] nm")
-    if np.any((eta < 0) | (eta > 1)) or np.any(a < 0):
-        raise ValueError("need 0 ≤ lorentz_fraction ≤ 1 and area ≥ 0")
-    lead = c.shape[:-1]
-    n_rows = int(np.prod(lead)) if lead else 1
-    row = np.repeat(np.arange(n_rows), c.shape[-1])
-    c, w, a, eta = (v.reshape(-1) for v in (c, w, a, eta))
-    keep = a > 0
-    out = _render_lines(row[keep], c[keep], w[keep], a[keep], eta[keep], n_rows)
-    return out.reshape(lead + (N_BANDS,))
-
-
-def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_rows: int) -> Array:
-    """Flat list of lines (row index, centre, FWHM, area, Lorentz fraction) → (n_rows, 81)."""
-    out = np.zeros((n_rows, N_BANDS))
-    j0 = np.rint((c - GRID[0]) / _D).astype(np.int64)
-    inside = (j0 >= -_FAR_PAD) & (j0 < N_BANDS + _FAR_PAD)
-    row, c, fwhm, area, eta, j0 = (v[inside] for v in (row, c, fwhm, area, eta, j0))
-    if row.size == 0:
-        return out
-    delta = c - (GRID[0] + _D * j0)
-    # Window: bilinear lookup in (δ, log FWHM); each table row conserves energy, so does the mix.
-    last_d, last_w = _TAB_DELTA.size - 1.000001, _TAB_LOGW.size - 1.000001
-    fd = np.clip((delta - _TAB_DELTA[0]) / (_TAB_DELTA[1] - _TAB_DELTA[0]), 0.0, last_d)
-    fw = np.clip((np.log(fwhm) - _TAB_LOGW[0]) / (_TAB_LOGW[1] - _TAB_LOGW[0]), 0.0, last_w)
-    i, j = fd.astype(np.int64), fw.astype(np.int64)
-    td, tw = (fd - i)[:, None, None], (fw - j)[:, None, None]
-    tab = _window_tables()  # (δ, log w, Gauss/Lorentz, samples)
-    v = ((1 - td) * ((1 - tw) * tab[i, j] + tw * tab[i, j + 1])
-         + td * ((1 - tw) * tab[i + 1, j] + tw * tab[i + 1, j + 1]))
-    vals = v[:, 0] * ((1.0 - eta) * area)[:, None] + v[:, 1] * (eta * area)[:, None]
-    has_l = eta > 0
-    cols = j0[:, None] + np.arange(-_WIN, _WIN + 1)[None, :]
-    ok = (cols >= 0) & (cols < N_BANDS)
-    flat = (row[:, None] * N_BANDS + cols)[ok]
-    out += np.bincount(flat, weights=vals[ok], minlength=out.size).reshape(n_rows, N_BANDS)
-    if np.any(has_l):
-        r, d, g = row[has_l], delta[has_l], 0.5 * fwhm[has_l]
-        amp = (eta * area)[has_l] * g / math.pi
-        mu2, mu4 = _D * _D / 6.0, _D**4 / 15.0
-        b = amp * (3.0 * mu2 - g * g)
-        c3 = amp * (5.0 * mu4 - 10.0 * mu2 * g * g + g**4)
-        chans = [amp * d**q for q in range(6)] + [b * d**q for q in range(3)] + [c3]
-        src = r * (N_BANDS + 2 * _FAR_PAD) + j0[has_l] + _FAR_PAD
-        size = n_rows * (N_BANDS + 2 * _FAR_PAD)
-        dep = np.concatenate([np.bincount(src, weights=ch, minlength=size).reshape(n_rows, -1)
-                              for ch in chans], axis=1)
-        out += dep @ _far_kernels().reshape(-1, N_BANDS)
-    return out
-
-
-@cache
-def _fine_matrix() -> Array:
-    """(fine, 81) matrix of ``resample_to_grid`` from :data:`FINE_NM` (the function is linear,
-    so its response to unit impulses is the whole operator)."""
-    return np.ascontiguousarray(resample_to_grid(FINE_NM, np.eye(FINE_NM.size)))
-
-
-def fine_to_grid(values: ArrayLike) -> Array:
-    """Spectra sampled on :data:`FINE_NM` (last axis) → the 5 nm grid, as ``resample_to_grid``."""
-    return np.asarray(values, dtype=np.float64) @ _fine_matrix()
-
-
-def _gauss(lam: Array, centre: Array, sigma: Array) -> Array:
-    return np.exp(-0.5 * ((lam - centre) / sigma) ** 2)
-
-
-# Hat average of smooth curves by a 3-point rule matching the hat's moments up to the 5th
-# (nodes 0, ±√0.4·Δ, weights 1−2w, w with w = 1/4.8): error < 2e-4 of the peak for bands of
-# FWHM ≥ 12 nm, at 3 evaluations per sample instead of a fine grid and a matrix product.
-_HAT3_OFFSETS = np.array([-math.sqrt(0.4), 0.0, math.sqrt(0.4)]) * _D
-_HAT3_W = np.array([1.0 / 4.8, 1.0 - 2.0 / 4.8, 1.0 / 4.8])
-_HAT3_NM: Array = (GRID[:, None] + _HAT3_OFFSETS[None, :]).ravel()
-
-
-def _hat3(values: Array) -> Array:
-    """Values at :data:`_HAT3_NM` (last axis) → hat averages on the grid."""
-    return values.reshape(values.shape[:-1] + (N_BANDS, 3)) @ _HAT3_W
-
-
-def _band_grid(peak_nm: Array, fwhm_nm: Array) -> Array:
-    """Energy-Gaussian band hat-averaged onto the grid."""
-    return _hat3(_energy_band(peak_nm, fwhm_nm, _HAT3_NM))
-
-
-def _energy_band(peak_nm: Array, fwhm_nm: Array, lam: Array = FINE_NM) -> Array:
-    """Band that is Gaussian in photon energy (phosphors, LEDs), per unit wavelength: a natural
-    red tail. Shapes (...,) → (..., len(lam))."""
-    p = np.asarray(peak_nm, dtype=np.float64)[..., None]
-    s_nu = np.asarray(fwhm_nm, dtype=np.float64)[..., None] * _FWHM_TO_SIGMA * 1e7 / p**2
-    nu = 1e7 / lam
-    return np.exp(-0.5 * ((nu - 1e7 / p) / s_nu) ** 2) * (p / lam) ** 2
-
-
-def _sigmoid(x: Array) -> Array:
-    return 0.5 * (1.0 + np.tanh(0.5 * x))
-
-
-# ---------------------------------------------------------------------------------------------
-# Colour helpers: only to aim white sources at a target CCT/Duv, as products are binned.
-# CIE 1931 2° CMFs by the analytic multi-lobe fit of Wyman, Sloan & Shirley (JCGT 2013): an
-# observer model, not a light source, and no table import.
-# ---------------------------------------------------------------------------------------------
-def _lobe(lam: Array, mu: float, s1: float, s2: float) -> Array:
-    s = np.where(lam < mu, s1, s2)
-    return np.exp(-0.5 * ((lam - mu) / s) ** 2)
-
-
-@cache
-def _cmf_grid() -> Array:
-    lam = GRID
-    x = 1.056 * _lobe(lam, 599.8, 37.9, 31.0) + 0.362 * _lobe(lam, 442.0, 16.0, 26.7) \
-        - 0.065 * _lobe(lam, 501.1, 20.4, 26.2)
-    y = 0.821 * _lobe(lam, 568.8, 46.9, 40.5) + 0.286 * _lobe(lam, 530.9, 16.3, 31.1)
-    z = 1.217 * _lobe(lam, 437.0, 11.8, 36.0) + 0.681 * _lobe(lam, 459.0, 26.0, 13.8)
-    return np.stack([x, y, z], axis=-1)  # (81, 3)
-
-
-def _xyz(spd: Array) -> Array:
-    return spd @ _cmf_grid()
-
-
-def _uv(xyz: Array) -> Array:
-    d = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
-    return np.stack([4.0 * xyz[..., 0] / d, 6.0 * xyz[..., 1] / d], axis=-1)
-
-
-def _target_xy(cct: Array, duv: Array) -> Array:
-    """Chromaticity at (CCT, Duv): Planckian point moved by Duv along the locus normal in uv."""
-    uv0 = _uv(_xyz(planck(GRID, cct[:, None])))
-    uv1 = _uv(_xyz(planck(GRID, cct[:, None] * 1.01)))
-    tan = uv1 - uv0
-    normal = np.stack([tan[:, 1], -tan[:, 0]], axis=-1)  # towards +v: above the locus (greenish)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    u, v = (uv0 + duv[:, None] * normal).T
-    den = 2.0 * u - 8.0 * v + 4.0
-    return np.stack([3.0 * u / den, 2.0 * v / den], axis=-1)
-
-
-def _solve_mix(parts: Array, fixed: Array, fixed_share: Array, target_xy: Array) -> tuple[Array, Array]:
-    """Weights w (m, 3) ≥ 0 hoped for, so that Σ wᵢ·partᵢ + fixed has chromaticity ``target_xy``
-    and ``fixed`` (rescaled) carries ``fixed_share`` of the luminance Y. NaN where singular.
-
-    Three linear equations per row (x and y conditions and the luminance split), by Cramer's rule.
-    """
-    pxyz = _xyz(parts)  # (m, 3 parts, 3)
-    fxyz = _xyz(fixed)  # (m, 3)
-    fy = fxyz[:, 1]
-    scale = np.divide(fixed_share, fy, out=np.zeros_like(fy), where=fy > 0)
-    fxyz = fxyz * scale[:, None]
-    x, y = target_xy[:, 0:1], target_xy[:, 1:2]
-    s = pxyz.sum(-1)
-    r0 = pxyz[..., 0] - x * s  # (m, 3)
-    r1 = pxyz[..., 1] - y * s
-    r2 = pxyz[..., 1]
-    fs = fxyz.sum(-1)
-    rhs = np.stack([-(fxyz[:, 0] - x[:, 0] * fs), -(fxyz[:, 1] - y[:, 0] * fs), 1.0 - fixed_share], -1)
-    c12, c20, c01 = np.cross(r1, r2), np.cross(r2, r0), np.cross(r0, r1)
-    det = np.einsum("mi,mi->m", r0, c12)
-    w = (rhs[:, 0:1] * c12 + rhs[:, 1:2] * c20 + rhs[:, 2:3] * c01)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        w = w / det[:, None]
-    w[np.abs(det) < 1e-300] = np.nan
-    return w, scale
-
-
-def _white_mix(
-    rng: Generator,
-    n: int,
-    make: Callable[[Generator, int], tuple[Array, Array, Array]],
-    targets: Callable[[Generator, int], tuple[Array, Array]],
-    part_share: Sequence[tuple[float, float]] | None = None,
-) -> Array:
-    """Rows aimed at sampled (CCT, Duv) targets: ``make`` gives 3 parts + a fixed part and its
-    luminance share; rows whose target lies outside the parts' gamut (or whose parts' luminance
-    shares fall outside ``part_share``) are redrawn."""
-    out = np.empty((n, N_BANDS))
-    todo = np.arange(n)
-    bounds = None if part_share is None else np.asarray(part_share, dtype=np.float64)
-    for _ in range(50):
-        m = todo.size
-        parts, fixed, share = make(rng, m)
-        cct, duv = targets(rng, m)
-        w, scale = _solve_mix(parts, fixed, share, _target_xy(cct, duv))
-        ok = np.all(np.isfinite(w) & (w >= 0), axis=1)
-        if bounds is not None:
-            lum = w * _xyz(parts)[..., 1]  # each part's share of Y (total Y is 1)
-            ok &= np.all((lum >= bounds[:, 0]) & (lum <= bounds[:, 1]), axis=1)
-        out[todo[ok]] = np.einsum("mk,mkb->mb", w[ok], parts[ok]) + fixed[ok] * scale[ok, None]
-        todo = todo[~ok]
-        if todo.size == 0:
-            return out
-    # Give up aiming for the last few: a valid (if off-target) mix beats a hang.
-    wf = np.nan_to_num(np.clip(w[~ok], 0.0, None)) + 1e-3
-    out[todo] = np.einsum("mk,mkb->mb", wf, parts[~ok]) + fixed[~ok] * scale[~ok, None]
-    return out
-
-
-@cache
-def _locus_table() -> tuple[Array, Array]:
-    t = np.geomspace(1000.0, 1e5, 600)
-    return t, _uv(_xyz(planck(GRID, t[:, None])))
-
-
-def _cct_duv(spd: Array) -> tuple[Array, Array]:
-    """Approximate CCT and Duv (nearest of 600 tabulated Planckian points, CCT within ~0.4 %):
-    enough to keep mostly-white lamp families white."""
-    t, loc = _locus_table()
-    uv = _uv(_xyz(spd))
-    d = uv[:, None, :] - loc[None, :, :]
-    j = np.argmin(np.einsum("mtk,mtk->mt", d, d), axis=1)
-    dist = np.sqrt(np.einsum("mk,mk->m", d[np.arange(j.size), j], d[np.arange(j.size), j]))
-    return t[j], np.where(uv[:, 1] >= loc[j, 1], dist, -dist)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1063,9 +703,6 @@ def filtered(rng: Generator, n: int) -> Array:
     return peak_normalise(out) * _filter_transmission(rng, n)
 
 
-# ---------------------------------------------------------------------------------------------
-# Public sampling
-# ---------------------------------------------------------------------------------------------
 #: Default relative weights (normalised at use). Generic 20 %, thermal 11 %, daylight 8 %,
 #: LEDs 26 %, fluorescent 11 %, HID & arcs 12 %, filtered 12 %.
 DEFAULT_WEIGHTS: dict[str, float] = {
@@ -1090,45 +727,3 @@ DEFAULT_WEIGHTS: dict[str, float] = {
 
 FAMILIES: tuple[str, ...] = tuple(DEFAULT_WEIGHTS)
 assert set(FAMILIES) == set(_GENERATORS), "every family needs a generator and a weight"
-
-
-def sample_spds(
-    n: int,
-    rng: np.random.Generator,
-    families: Sequence[str] | None = None,
-    weights: Mapping[str, float] | None = None,
-) -> tuple[Array, list[str]]:
-    """Draw ``n`` peak-normalised SPDs on the 81-sample grid and the family label of each row.
-
-    Families are drawn with ``weights`` (default :data:`DEFAULT_WEIGHTS`), restricted to
-    ``families`` when given. Same generator state → same output.
-    """
-    fams = tuple(families) if families is not None else FAMILIES
-    table = DEFAULT_WEIGHTS if weights is None else dict(weights)
-    unknown = (set(fams) | set(table)) - set(FAMILIES)
-    if unknown:
-        raise ValueError(f"unknown families: {sorted(unknown)}")
-    if not fams:
-        raise ValueError("no families to sample from")
-    w = np.array([float(table.get(f, 0.0)) for f in fams])
-    if np.any(w < 0) or not np.isfinite(w).all() or w.sum() <= 0:
-        raise ValueError("family weights must be finite, non-negative and not all zero")
-    n = int(n)
-    if n < 0:
-        raise ValueError("n must be non-negative")
-    label_idx = rng.choice(len(fams), size=n, p=w / w.sum())
-    out = np.empty((n, N_BANDS))
-    for k, fam in enumerate(fams):
-        idx = np.flatnonzero(label_idx == k)
-        if idx.size:
-            out[idx] = _generate(fam, rng, idx.size)
-    return out, [fams[i] for i in label_idx]
-
-
-
-@cache
-def gaussian_prior(n: int = 50_000, seed: int = 20240) -> GaussianPrior:
-    """Mean and covariance of the prior's spectra: the physics solve's Gaussian prior (baked into
-    the model's metadata; a fixed seed so every build gets the same numbers)."""
-    spds, _ = sample_spds(n, np.random.default_rng(seed))
-    return GaussianPrior.from_samples(spds)
