@@ -749,7 +749,6 @@ def test_24mp_jpeg_loads_fast(tmp_path):
 
 @pytest.fixture
 def blender_decoder():
-    pytest.importorskip("bpy")
     from cd_spectra_addon.blender import image_decoder
 
     image_decoder.register()

@@ -294,12 +294,6 @@ def write_toy_model(folder: Path, variant: str) -> Path:
 # --- the catalogue ---------------------------------------------------------------------------
 
 
-def _has_bpy() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("bpy") is not None
-
-
 def _case(name: str, category: str, what: str, build: Callable[[Path, Base], Path | None], expect: Expect,
           **kw: Any) -> Case:
     return Case(name, category, what, build, expect, **kw)
@@ -351,7 +345,7 @@ CASES: tuple[Case, ...] = (
           "and the add-on register it, the bare API does not)",
           lambda f, b: _put(f / "float.tif", _tiff(b.linear.astype(np.float32))),
           Expect(PhotoError, ("no fallback decoder",)),
-          cli_expect=_result(min_confidence=0.5, cct=True) if _has_bpy() else None),
+          cli_expect=_result(min_confidence=0.5, cct=True)),
     _case("exr-nan-inf-negative", "format", "EXR with unclipped negative noise, 1 % NaN, 1 % +-Inf",
           lambda f, b: _write(f, "damaged.exr", _exr_damaged(b, np.random.default_rng(11)), "exr"),
           _result("NaN/Inf", max_confidence=0.99, cct=True)),
