@@ -25,7 +25,7 @@ from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.estimate import estimate_image
 from cd_spectra_addon.core.images import ExifInfo, LinearImage
-from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model, model_inputs
+from cd_spectra_addon.core.model import INPUT_SIZE, load_model, model_inputs
 from cd_spectra_addon.core.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
 from cd_spectra_addon.core.spectra_files import read_spectra_csv
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
@@ -193,14 +193,12 @@ def test_toy_model_wrapper_on_arbitrary_inputs(toy_model, x) -> None:
     _predict_checks(toy_model, x)
 
 
-@pytest.mark.skipif(not (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file(), reason="no shipped model (run make model)")
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(arrays(np.float32, INPUT_SIZE, elements=st.floats(-1e4, 1e4, width=32)))
 def test_shipped_model_on_arbitrary_finite_inputs(x) -> None:
     _predict_checks(load_model(), x)
 
 
-@pytest.mark.skipif(not (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file(), reason="no shipped model (run make model)")
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(profiles(), st.floats(0.0, 0.05), st.booleans(), st.floats(0.0, 1.0))
 def test_shipped_model_on_model_inputs_of_random_profiles(profile, sigma, generic, residual) -> None:
