@@ -96,6 +96,7 @@ def _check_result(case: Case, out: Outcome, via: str) -> None:
         assert out.cct_k is not None and abs(out.cct_k - TRUE_CCT_K) < CCT_TOLERANCE_K, (case.name, out.cct_k)
 
 
+@pytest.mark.slow  # `runs`: every case built and run through CLI children (~1 min)
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_cli(runs: dict[str, Run], case: Case) -> None:
     out = _run(runs, case).cli
@@ -118,6 +119,7 @@ def test_cli(runs: dict[str, Run], case: Case) -> None:
     assert hostile.judge(case, out, "cli") == (True, "")  # the report's verdict is this test's
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [c for c in CASES if c.in_process], ids=lambda c: c.name)
 def test_estimate_photo(runs: dict[str, Run], case: Case) -> None:
     out = _run(runs, case).in_process
@@ -147,6 +149,7 @@ def test_every_category_is_covered() -> None:
 # --- memory ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", BOMBS)
 def test_bomb_is_refused_before_decoding_in_bounded_memory(runs: dict[str, Run], name: str) -> None:
     run = _run(runs, BY_NAME[name])

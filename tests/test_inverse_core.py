@@ -121,6 +121,7 @@ def test_nnls_matches_scipy(rng):
         assert np.max(np.abs(got - ref)) < 1e-8
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pose", [Pose(camera_offset_mm=(2.0, 0.0)), Pose(light_offset_mm=(8.0, 0.0))])
 def test_pose_fit_finds_the_disc_centre(pose):
     scene = Scene(load_preset("cd-default").with_image_size(192), pose)

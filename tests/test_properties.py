@@ -116,12 +116,14 @@ def _check_estimate(image: LinearImage, focal: float | None, preset: str) -> Non
     assert all(math.isfinite(v) for v in result.disc.center_px) and math.isfinite(result.disc.radius_px)
 
 
+@pytest.mark.slow
 @SLOW
 @given(photos())
 def test_any_photo_gives_a_finite_peak_normalised_spd_or_a_specific_error(case) -> None:
     _check_estimate(*case)
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, derandomize=True)
 @given(st.sampled_from([(8, np.uint8), (16, np.uint16)]), st.integers(64, 120), st.integers(64, 120),
        st.integers(0, 2**32 - 1))
@@ -222,6 +224,7 @@ def tables(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
     return wl, values
 
 
+@pytest.mark.slow
 @FAST
 @given(tables())
 def test_resample_to_grid_stays_finite_and_non_negative(table) -> None:

@@ -26,6 +26,7 @@ from training.simulation.photo import write_photo
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_short_soak_keeps_memory_flat(tmp_path: Path) -> None:
     out = tmp_path / "soak.json"
     proc = subprocess.run([sys.executable, "-m", "training.reliability.soak", "--n", "48", "--warmup", "12", "--json", str(out)],
@@ -40,6 +41,7 @@ def test_short_soak_keeps_memory_flat(tmp_path: Path) -> None:
     assert proc.returncode == 0
 
 
+@pytest.mark.slow
 def test_soak_catches_a_leak(monkeypatch: pytest.MonkeyPatch) -> None:
     """An estimator that keeps 4 MB per call fails the bar (the measurement is not vacuous)."""
     from cd_spectra_addon.core import estimate
