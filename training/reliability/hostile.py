@@ -243,11 +243,6 @@ def _good_if_unwritable(folder: Path, base: Base) -> Path | None:
 
 # --- toy models ------------------------------------------------------------------------------
 
-MODEL_VARIANTS = ("garbage-bytes", "missing-metadata", "metadata-not-json", "layout-mismatch",
-                  "metadata-prior-shape", "metadata-fusion-text", "wrong-inputs", "wrong-output-length",
-                  "nan-output")
-
-
 def write_toy_model(folder: Path, variant: str) -> Path:
     """``folder/cd_spectra.onnx`` + metadata, broken as ``variant`` says (or "ok": a valid toy
     model with the shipped name and layout: a flat SPD, whatever the input)."""
