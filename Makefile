@@ -19,6 +19,11 @@ setup: $(STAMP)
 test: setup
 	$(PY) -m pytest -q
 
+# The inner loop: the core without Blender (bpy) or slow tests; `make test` (CI) runs everything.
+.PHONY: test-fast
+test-fast: setup
+	$(PY) -m pytest -q -m "not slow and not blender"
+
 # The bundled sample photo through the command-line estimator: result JSON, plot and .blend.
 demo: setup
 	@mkdir -p out/demo

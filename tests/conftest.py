@@ -1,11 +1,132 @@
-"""Shared fixtures. Blender-backed tests are marked ``blender``; everything runs in ``make test``."""
+"""Shared fixtures, and the rule that keeps ``make test-fast`` honest.
+
+``make test-fast`` runs ``-m "not slow and not blender"``; ``make test`` (CI) runs everything.
+A test that uses Blender but lacks the ``blender`` marker would slip into the inner loop, so the
+marker is enforced, not trusted:
+
+- at collection, a test whose code (or a fixture it uses, or its module at import) names bpy,
+  Blender's own modules or a project module that needs them is an error unless marked;
+- at run time, an unmarked test that imports bpy fails. The check wraps ``__import__``, which
+  also sees ``import bpy`` of a module that is already loaded, so test order does not hide it.
+
+bpy is pinned (requirements.txt): tests import it plainly and never skip without it.
+"""
 
 from __future__ import annotations
 
+import builtins
+import types
+from collections.abc import Iterator
+from typing import Any
+
 import numpy as np
 import pytest
+
+# Blender's modules, and project modules that import them at the top.
+BLENDER_MODULES = ("bpy", "addon_utils", "bmesh", "mathutils", "cd_spectra_addon.blender",
+                   "training.simulation.cycles_scene")
 
 
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(1234)
+
+
+def _is_blender(name: str) -> bool:
+    return any(name == m or name.startswith(m + ".") for m in BLENDER_MODULES)
+
+
+def _code_names(code: types.CodeType) -> Iterator[str]:
+    yield from code.co_names
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            yield from _code_names(const)
+
+
+def _names_blender(func: Any, depth: int = 2) -> str | None:
+    """The first name in ``func``'s code (or, ``depth`` calls down, in a plain function it names)
+    that is Blender or refers to it, else None."""
+    func = getattr(func, "__wrapped__", func)
+    code = getattr(func, "__code__", None)
+    if code is None:
+        return None
+    scope = getattr(func, "__globals__", {})
+    for name in _code_names(code):
+        if _is_blender(name):
+            return name
+        value = scope.get(name)
+        owner = value.__name__ if isinstance(value, types.ModuleType) else getattr(value, "__module__", None)
+        if isinstance(owner, str) and _is_blender(owner):
+            return f"{name} ({owner})"
+        if depth > 0 and isinstance(value, types.FunctionType) and value is not func:
+            if (why := _names_blender(value, depth - 1)) is not None:
+                return f"{name} → {why}"
+    return None
+
+
+def _blender_use(item: pytest.Function) -> str | None:
+    """Why ``item`` needs Blender, judged from its code, its fixtures and its module."""
+    module = item.module
+    for name, value in vars(module).items():
+        if isinstance(value, types.ModuleType) and _is_blender(value.__name__):
+            return f"its module imports {value.__name__} at the top"
+    if (why := _names_blender(item.function)) is not None:
+        return f"it uses {why}"
+    for fixture_name in item.fixturenames:
+        for fixturedef in item._fixtureinfo.name2fixturedefs.get(fixture_name, ()):
+            if (why := _names_blender(fixturedef.func)) is not None:
+                return f"its fixture {fixture_name!r} uses {why}"
+    return None
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    unmarked = []
+    for item in items:
+        if isinstance(item, pytest.Function) and item.get_closest_marker("blender") is None:
+            if (why := _blender_use(item)) is not None:
+                unmarked.append(f"  {item.nodeid}: {why}")
+    if unmarked:
+        raise pytest.UsageError("tests that use Blender must be marked @pytest.mark.blender "
+                                "(make test-fast deselects them):\n" + "\n".join(unmarked))
+
+
+class _ImportWatch:
+    """Records imports of Blender's modules while installed as ``builtins.__import__``."""
+
+    def __init__(self) -> None:
+        self.seen: list[str] = []
+        self._original = builtins.__import__
+
+    def __call__(self, name: str, globals: Any = None, locals: Any = None, fromlist: Any = (),
+                 level: int = 0) -> types.ModuleType:
+        if level == 0 and _is_blender(name) and name not in self.seen:
+            self.seen.append(name)
+        return self._original(name, globals, locals, fromlist, level)
+
+    def __enter__(self) -> _ImportWatch:
+        builtins.__import__ = self
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        builtins.__import__ = self._original
+
+
+def _watched(item: pytest.Item) -> Iterator[None]:
+    if item.get_closest_marker("blender") is not None:
+        return (yield)
+    with _ImportWatch() as watch:
+        result = yield
+    if watch.seen:
+        raise pytest.fail.Exception(f"{item.nodeid} imported {', '.join(watch.seen)} without "
+                                    "@pytest.mark.blender (make test-fast would run it)", pytrace=False)
+    return result
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_setup(item: pytest.Item) -> Iterator[None]:
+    return (yield from _watched(item))
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_call(item: pytest.Item) -> Iterator[None]:
+    return (yield from _watched(item))

@@ -190,7 +190,3 @@ def render_sample_photo(out_dir: Path, temperature_k: float = 2856.0) -> Path:
                     str(out_dir / "photos"), "--engine", "numpy", "--size", "256", "--format", "png",
                     "--cache-dir", str(out_dir / "cache")], cwd=ROOT, check=True, capture_output=True, timeout=600)
     return out_dir / "photos" / "lamp.png"
-
-
-def shipped_model_present() -> bool:
-    return (ROOT / "models" / "cd_spectra.onnx").is_file()

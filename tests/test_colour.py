@@ -4,6 +4,7 @@ and properties that must hold for any non-negative SPD."""
 from __future__ import annotations
 
 
+import colour
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -13,13 +14,6 @@ from hypothesis.extra.numpy import arrays
 from cd_spectra_addon.core import colour as cc
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
-
-try:
-    import colour
-except ImportError:  # the numpy-only tests still run; parity needs colour-science
-    colour = None
-
-needs_colour = pytest.mark.skipif(colour is None, reason="parity tests need colour-science")
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 SPACES = ("Linear Rec.709", "Linear Rec.2020", "ACEScg")
@@ -42,8 +36,6 @@ def line(wavelength_nm: float) -> np.ndarray:
 @pytest.fixture(scope="module")
 def ref():
     """colour-science's XYZ and CCT for the same SPD (the piecewise-linear curve, 380–780 nm)."""
-    if colour is None:
-        pytest.skip("needs colour-science")
     cmfs = colour.MSDS_CMFS[OBSERVER].copy().trim(colour.SpectralShape(380, 780, 1))
     fine = colour.SpectralShape(380, 780, 1)
 
@@ -64,8 +56,6 @@ def ref():
 
 def real_spectra() -> dict[str, np.ndarray]:
     """CIE illuminants (A, D, FL, HP) and LEDs from colour's datasets, on the product grid."""
-    if colour is None:
-        return {}
     out = {}
     for name, sd in colour.SDS_ILLUMINANTS.items():
         if name.startswith(("A", "D", "FL", "HP", "LED")) and name != "ISO 7589 Photographic Daylight":
@@ -113,7 +103,6 @@ class TestReferenceValues:
 # --- parity with colour-science --------------------------------------------------------------
 
 
-@needs_colour
 class TestBakedTables:
     def test_cmf_hat(self):
         cmfs = colour.MSDS_CMFS[OBSERVER]
@@ -164,7 +153,6 @@ def test_working_space_matrices_match_blender_config():
     np.testing.assert_allclose(cc._tables().xyz_to_rgb["Linear Rec.2020"], rec2020, atol=1e-7)
 
 
-@needs_colour
 class TestParity:
     @pytest.mark.parametrize("temperature", BLACKBODY_K)
     def test_blackbody(self, ref, temperature):

@@ -3,6 +3,7 @@
 import math
 import re
 
+import bpy
 import numpy as np
 import pytest
 from scipy import special
@@ -10,10 +11,8 @@ from scipy import special
 from cd_spectra_addon.core.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 from tests.ring_geometry import coaxial_first_order_radius_px, radial_peak_px
+from training.simulation import cycles_scene
 from training.simulation.render_numpy import render_cube as numpy_cube
-
-bpy = pytest.importorskip("bpy")
-from training.simulation import cycles_scene  # noqa: E402  (needs bpy)
 
 pytestmark = [pytest.mark.blender, pytest.mark.slow]
 

@@ -1,17 +1,27 @@
-"""The extension manifest and the build script's rules (no Blender session needed)."""
+"""The extension manifest, judged by Blender's own extension tool, and the build script's rules.
+
+Blender's tool (``blender_ext.py``, shipped in the bpy wheel) is what ``blender --command extension
+validate`` and extensions.blender.org run; it is a plain script, so no Blender session is needed.
+"""
 
 from __future__ import annotations
 
-import re
+import importlib.metadata
+import importlib.util
 import subprocess
 import sys
 import tomllib
+import zipfile
 from pathlib import Path
+from types import ModuleType
+from typing import Any
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text(encoding="utf-8"))
+MANIFEST_TEXT = (ROOT / "blender_manifest.toml").read_text(encoding="utf-8")
+MANIFEST = tomllib.loads(MANIFEST_TEXT)
+ADDON_TOP = {"__init__.py", "blender_manifest.toml", "README.md", "cd_spectra_addon", "models"}
 
 sys.path.insert(0, str(ROOT))
 from tools import build_extension  # noqa: E402
@@ -19,53 +29,120 @@ from tools import build_extension  # noqa: E402
 sys.path.remove(str(ROOT))
 
 
-def test_manifest_fields_follow_blenders_rules() -> None:
+def _blender_tags_file() -> Path:
+    """The tag list Blender validates against (what ``blender --command extension`` passes)."""
+    return build_extension.blender_ext_script().parents[3] / "modules" / "_bpy_internal" / "extensions" / "tags.py"
+
+
+@pytest.fixture(scope="module")
+def blender_ext() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("blender_ext", build_extension.blender_ext_script())
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _errors(blender_ext: ModuleType, manifest: dict[str, Any]) -> list[str]:
+    """Blender's complaints about a manifest (fields and tags), empty when it would install."""
+    result = blender_ext.pkg_manifest_from_dict_and_validate_all_errros(manifest, from_repo=False, strict=True)
+    errors = list(result) if isinstance(result, list) else []
+    tags = blender_ext.pkg_manifest_tags_load_valid_map(str(_blender_tags_file()))
+    assert isinstance(tags, dict), tags
+    if (error := blender_ext.pkg_manifest_tags_valid_or_error(tags, manifest["type"], manifest.get("tags"))):
+        errors.append(error)
+    return errors
+
+
+def _validate_cli(path: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(build_extension.blender_ext_script()), "validate", str(path),
+                           "--valid-tags", str(_blender_tags_file())], capture_output=True, text=True, timeout=120)
+
+
+def test_source_manifest_passes_blenders_validator() -> None:
+    proc = _validate_cli(ROOT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("field, value, complaint", [
+    ("version", "0.1", "semantic-version"),
+    ("tagline", "A lamp's spectrum from one photo of a CD.", "punctuation"),
+    ("tags", ["Lighting", "Spectra"], "Spectra"),
+    ("blender_version_min", "4.2", "blender_version_min"),
+])
+def test_blenders_validator_refuses_a_broken_copy(blender_ext: ModuleType, field: str, value: Any,
+                                                  complaint: str) -> None:
+    """The check above can fail: the same validator on the manifest with one field broken."""
+    assert _errors(blender_ext, MANIFEST) == []
+    errors = _errors(blender_ext, dict(MANIFEST, **{field: value}))
+    assert any(complaint in e for e in errors), errors
+
+
+def test_one_version_everywhere() -> None:
+    """The manifest, pyproject and the package say the same version (a release bumps all three)."""
     import cd_spectra_addon
 
-    assert MANIFEST["schema_version"] == "1.0.0"
-    assert MANIFEST["id"] == "cd_spectra"
-    assert MANIFEST["name"] == "CD Spectra"
-    assert MANIFEST["type"] == "add-on"
-    assert MANIFEST["version"] == cd_spectra_addon.__version__
-    tagline = MANIFEST["tagline"]
-    assert len(tagline) <= 64 and (tagline[-1].isalnum() or tagline[-1] in ")]}")
-    assert re.fullmatch(r"\d+\.\d+\.\d+", MANIFEST["blender_version_min"])
-    assert MANIFEST["blender_version_min"] == "4.2.0"
-    assert MANIFEST["blender_version_max"] == "5.1.0"  # 5.1 is Python 3.13: cp311 wheels fail
-    assert MANIFEST["permissions"] == {"files": "Read CD photos and write spectra and calibration profiles"}
-    assert set(MANIFEST["platforms"]) == {"linux-x64", "windows-x64", "macos-arm64", "macos-x64"}
-    assert MANIFEST["license"] == ["SPDX:GPL-3.0-or-later"]
-    assert MANIFEST["wheels"] == []  # filled only in the build copy
+    pyproject = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    assert MANIFEST["version"] == pyproject["project"]["version"] == cd_spectra_addon.__version__
 
 
-def test_manifest_excludes_everything_that_does_not_ship() -> None:
-    patterns = set(MANIFEST["build"]["paths_exclude_pattern"])
-    for required in ("/training/", "/tests/", "/bench/", "/data/", "/out/", "/samples/", "/tools/",
-                     "/build/", "/dist/", "/wheels/", ".*", "__pycache__/"):
-        assert required in patterns
+def test_the_blender_we_test_with_is_in_the_supported_range(blender_ext: ModuleType) -> None:
+    tested = tuple(int(p) for p in importlib.metadata.version("bpy").split(".")[:3])
+    low = blender_ext.blender_version_parse_or_error(MANIFEST["blender_version_min"])
+    high = blender_ext.blender_version_parse_or_error(MANIFEST["blender_version_max"])
+    assert low <= tested < high, (low, tested, high)  # blender_version_max is exclusive
+
+
+def test_build_makes_a_zip_for_every_declared_platform() -> None:
+    assert {p.blender for p in build_extension.PLATFORMS} == set(MANIFEST["platforms"])
+    for package, versions in build_extension.PINS.items():
+        assert set(versions) == set(MANIFEST["platforms"]), package
+
+
+def test_exactly_the_addon_ships(blender_ext: ModuleType) -> None:
+    """Blender's own exclude matching over the files the build stages: the add-on and its model
+    go in, whole; training, tests, tools, benches and samples stay out."""
+    excluded = blender_ext.PathPatternMatch(MANIFEST["build"]["paths_exclude_pattern"])
+
+    def ships(rel: str) -> bool:  # as blender_ext's build walks: a folder excluded prunes its files
+        parts = rel.split("/")
+        return not any(excluded.test_path("/".join(parts[:i]) + "/") for i in range(1, len(parts))) \
+            and not excluded.test_path(rel)
+
+    files = [p.relative_to(ROOT).as_posix() for p in build_extension.source_files()]
+    shipped = {f for f in files if ships(f)}
+    assert {f.split("/")[0] for f in shipped} <= ADDON_TOP, sorted(shipped)
+    must = {f for f in files if f.split("/")[0] in {"cd_spectra_addon", "models"} and "__pycache__" not in f}
+    assert must <= shipped, sorted(must - shipped)
+    assert {"__init__.py", "blender_manifest.toml", "models/cd_spectra.onnx"} <= shipped
 
 
 def test_pins_never_bundle_numpy_and_keep_windows_loadable() -> None:
     assert not any(name.lower().startswith("numpy") for name in build_extension.PINS)
-    assert set(build_extension.PINS) == {"onnxruntime", "pillow", "openexr"}
-    for package, versions in build_extension.PINS.items():
-        assert set(versions) == {p.blender for p in build_extension.PLATFORMS}, package
     windows_ort = tuple(int(v) for v in build_extension.PINS["onnxruntime"]["windows-x64"].split("."))
     assert windows_ort < (1, 19), "onnxruntime 1.19+ does not load in Blender on Windows (see README)"
     assert not build_extension.wheel_name_ok("numpy-1.26.4-cp311-cp311-win_amd64.whl")
     assert build_extension.wheel_name_ok("onnxruntime-1.18.1-cp311-cp311-win_amd64.whl")
 
 
-def test_wheel_list_is_written_into_the_build_copy() -> None:
-    text = (ROOT / "blender_manifest.toml").read_text(encoding="utf-8")
+def test_wheel_list_is_written_into_the_build_copy(blender_ext: ModuleType) -> None:
+    """The committed manifest lists no wheels (they are not in git; the build writes them in), and
+    the build copy is valid for Blender and differs from the source only in its wheel list."""
+    assert MANIFEST["wheels"] == []
     names = ["onnxruntime-1.18.1-cp311-cp311-win_amd64.whl", "pillow-13.0.0-cp311-cp311-win_amd64.whl"]
-    built = tomllib.loads(build_extension.manifest_with_wheels(text, names))
+    built = tomllib.loads(build_extension.manifest_with_wheels(MANIFEST_TEXT, names))
     assert built["wheels"] == [f"./wheels/{n}" for n in names]
+    assert _errors(blender_ext, built) == []
     assert {k: v for k, v in built.items() if k != "wheels"} == {k: v for k, v in MANIFEST.items() if k != "wheels"}
 
 
-@pytest.mark.blender
-def test_source_manifest_validates_with_blenders_tool() -> None:
-    script = build_extension.blender_ext_script()
-    proc = subprocess.run([sys.executable, str(script), "validate", str(ROOT)], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+def test_built_zips_hold_every_wheel_they_list(blender_ext: ModuleType) -> None:
+    """Zips from `make extension` in dist/ (when built; nothing here needs the network): valid for
+    Blender, and every wheel the manifest inside lists is in the zip."""
+    for zip_path in sorted((ROOT / "dist").glob("*.zip")):
+        proc = _validate_cli(zip_path)
+        assert proc.returncode == 0, (zip_path.name, proc.stdout + proc.stderr)
+        with zipfile.ZipFile(zip_path) as zf:
+            manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
+            missing = [w for w in manifest["wheels"] if w.removeprefix("./") not in zf.namelist()]
+        assert missing == [], (zip_path.name, missing)

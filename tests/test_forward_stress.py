@@ -95,7 +95,6 @@ def test_zero_power_bands_give_finite_photos_and_no_nan_estimate(tmp_path) -> No
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(EXTREMES))
 def test_cycles_agrees_with_the_twin_at_extremes(name: str) -> None:
-    pytest.importorskip("bpy")
     from training.simulation import cycles_scene
 
     anti_aliased, _ = cycles_scene.render_cube(EXTREMES[name], EDGE_BANDS, 8)  # jittered rays: no NaN anywhere

@@ -18,7 +18,6 @@ their own (broken) toy model either way.
 
 from __future__ import annotations
 
-import functools
 import json
 import sys
 import tracemalloc
@@ -76,8 +75,9 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Run]:
 
 def _run(runs: dict[str, Run], case: Case) -> Run:
     run = runs[case.name]
-    if run.photo is None:
-        pytest.skip(f"{case.name}: cannot be built on this system")
+    if run.photo is None and sys.platform == "win32":
+        pytest.skip(f"{case.name}: needs POSIX (a FIFO, a folder this process cannot write)")
+    assert run.photo is not None, f"{case.name}: the case could not be built"
     return run
 
 
@@ -96,6 +96,7 @@ def _check_result(case: Case, out: Outcome, via: str) -> None:
         assert out.cct_k is not None and abs(out.cct_k - TRUE_CCT_K) < CCT_TOLERANCE_K, (case.name, out.cct_k)
 
 
+@pytest.mark.slow  # `runs`: every case built and run through CLI children (~1 min)
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_cli(runs: dict[str, Run], case: Case) -> None:
     out = _run(runs, case).cli
@@ -118,6 +119,7 @@ def test_cli(runs: dict[str, Run], case: Case) -> None:
     assert hostile.judge(case, out, "cli") == (True, "")  # the report's verdict is this test's
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [c for c in CASES if c.in_process], ids=lambda c: c.name)
 def test_estimate_photo(runs: dict[str, Run], case: Case) -> None:
     out = _run(runs, case).in_process
@@ -147,6 +149,7 @@ def test_every_category_is_covered() -> None:
 # --- memory ----------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", BOMBS)
 def test_bomb_is_refused_before_decoding_in_bounded_memory(runs: dict[str, Run], name: str) -> None:
     run = _run(runs, BY_NAME[name])
@@ -182,26 +185,24 @@ BLENDER_CASES = [c for c in CASES if c.blender]
 @pytest.fixture
 def blender_addon(request: pytest.FixtureRequest) -> Installed:
     """The installed add-on (bpy imported first: addon_utils comes with it)."""
-    pytest.importorskip("bpy")
+    import bpy  # noqa: F401
     return request.getfixturevalue("addon")
 
 
 def _blender_case(case: Case, run: Run, installed: Installed, monkeypatch: pytest.MonkeyPatch) -> None:
     """Point the installed add-on's estimator at what the case needs."""
-    estimate = installed.sub("cd_spectra_addon.core.estimate")
     model = installed.sub("cd_spectra_addon.core.model")
     monkeypatch.setattr(model, "_CACHE", {})
     if run.model_dir is not None:
         monkeypatch.setattr(model, "MODEL_DIR", run.model_dir)
-    elif not (model.MODEL_DIR / f"{model.MODEL_NAME}.onnx").is_file():
-        monkeypatch.setattr(estimate, "estimate_photo", functools.partial(estimate.estimate_photo, model=None))
 
 
 @pytest.mark.blender
 @pytest.mark.parametrize("case", BLENDER_CASES, ids=lambda c: c.name)
 def test_blender_estimate_operator(blender_addon: Installed, runs: dict[str, Run], case: Case,
                                    monkeypatch: pytest.MonkeyPatch) -> None:
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     run = _run(runs, case)
     _blender_case(case, run, blender_addon, monkeypatch)
     before, settings_before = datablock_snapshot(), scene_snapshot()
@@ -228,7 +229,8 @@ def test_blender_float_tiff_goes_through_blenders_loader(blender_addon: Installe
                                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """The case the CLI must refuse (Pillow cannot read float TIFF) works inside Blender, and the
     loader's temporary image data-block is gone afterwards."""
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     case = BY_NAME["tiff-float"]
     run = _run(runs, case)
     _blender_case(case, run, blender_addon, monkeypatch)
@@ -241,11 +243,12 @@ def test_blender_float_tiff_goes_through_blenders_loader(blender_addon: Installe
 
 @pytest.mark.blender
 def test_blender_export_to_unwritable_folder_writes_nothing(blender_addon: Installed, tmp_path: Path) -> None:
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     formats = blender_addon.sub("cd_spectra_addon.blender.spectra_io").export_formats()
     folder = hostile.unwritable_folder(tmp_path)
-    if not formats or folder is None:
-        pytest.skip("no SPD writers or no unwritable folder here")
+    assert formats, "the add-on offers no export format"
+    assert folder is not None, "no folder this process cannot write (as root: /sys)"
     blender_addon.sub("cd_spectra_addon.blender.state").store_estimate(bpy.context.scene.cd_spectra,
                                                               fake_estimate(blackbody_spd(3000.0)))
     before = datablock_snapshot()
@@ -283,7 +286,8 @@ def test_blender_failure_half_way_leaves_nothing(blender_addon: Installed, monke
                                                  operator: str, where: str) -> None:
     """An exception inside Blender half-way through (not bad input: a bpy error) leaves no light,
     object or node group behind and does not change the selected light."""
-    bpy = pytest.importorskip("bpy")
+    import bpy
+
     light_mod = blender_addon.sub("cd_spectra_addon.blender.light")
     group_mod = blender_addon.sub("cd_spectra_addon.blender.node_group")
     blender_addon.sub("cd_spectra_addon.blender.state").store_estimate(bpy.context.scene.cd_spectra,

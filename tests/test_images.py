@@ -349,6 +349,7 @@ def test_factors_decode_near_max_side():
     assert images._factors(1100, 1024) == (1, 2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["jpg", "png", "png16", "exr"])
 def test_downsampling_keeps_mean_radiance_and_ring_centre(tmp_path, fmt):
     height, width, centre = 1200, 1792, (903.37, 588.81)
@@ -729,6 +730,7 @@ def _camera_like_jpeg(path: Path) -> None:
     Image.fromarray(codes).save(path, quality=90)
 
 
+@pytest.mark.slow
 def test_24mp_jpeg_loads_fast(tmp_path):
     path = tmp_path / "24mp.jpg"
     _camera_like_jpeg(path)
@@ -749,7 +751,6 @@ def test_24mp_jpeg_loads_fast(tmp_path):
 
 @pytest.fixture
 def blender_decoder():
-    pytest.importorskip("bpy")
     from cd_spectra_addon.blender import image_decoder
 
     image_decoder.register()

@@ -122,6 +122,7 @@ def test_nnls_matches_scipy(rng):
         assert np.max(np.abs(got - ref)) < 1e-8
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pose", [Pose(camera_offset_mm=(2.0, 0.0)), Pose(light_offset_mm=(8.0, 0.0))])
 def test_pose_fit_finds_the_disc_centre(pose):
     scene = Scene(load_preset("cd-default").with_image_size(192), pose)
@@ -147,7 +148,8 @@ def test_calibration_gains_recover_a_known_distortion(nominal, rng):
 
 
 def test_daylight_reference_matches_cie_d65():
-    colour = pytest.importorskip("colour")
+    import colour
+
     d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(colour.SpectralShape(380, 780, 5)).values
     assert np.max(np.abs(daylight_spd(6504.0) - peak_normalise(d65))) < 1e-3
 

@@ -25,7 +25,7 @@ from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.estimate import estimate_image
 from cd_spectra_addon.core.images import ExifInfo, LinearImage
-from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model, model_inputs
+from cd_spectra_addon.core.model import INPUT_SIZE, load_model, model_inputs
 from cd_spectra_addon.core.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
 from cd_spectra_addon.core.spectra_files import read_spectra_csv
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
@@ -116,12 +116,14 @@ def _check_estimate(image: LinearImage, focal: float | None, preset: str) -> Non
     assert all(math.isfinite(v) for v in result.disc.center_px) and math.isfinite(result.disc.radius_px)
 
 
+@pytest.mark.slow
 @SLOW
 @given(photos())
 def test_any_photo_gives_a_finite_peak_normalised_spd_or_a_specific_error(case) -> None:
     _check_estimate(*case)
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None, derandomize=True)
 @given(st.sampled_from([(8, np.uint8), (16, np.uint16)]), st.integers(64, 120), st.integers(64, 120),
        st.integers(0, 2**32 - 1))
@@ -193,14 +195,12 @@ def test_toy_model_wrapper_on_arbitrary_inputs(toy_model, x) -> None:
     _predict_checks(toy_model, x)
 
 
-@pytest.mark.skipif(not (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file(), reason="no shipped model (run make model)")
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(arrays(np.float32, INPUT_SIZE, elements=st.floats(-1e4, 1e4, width=32)))
 def test_shipped_model_on_arbitrary_finite_inputs(x) -> None:
     _predict_checks(load_model(), x)
 
 
-@pytest.mark.skipif(not (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file(), reason="no shipped model (run make model)")
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(profiles(), st.floats(0.0, 0.05), st.booleans(), st.floats(0.0, 1.0))
 def test_shipped_model_on_model_inputs_of_random_profiles(profile, sigma, generic, residual) -> None:
@@ -224,6 +224,7 @@ def tables(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray]:
     return wl, values
 
 
+@pytest.mark.slow
 @FAST
 @given(tables())
 def test_resample_to_grid_stays_finite_and_non_negative(table) -> None:

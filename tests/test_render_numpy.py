@@ -16,6 +16,8 @@ from tests.ring_geometry import (
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
+pytestmark = pytest.mark.slow  # full-resolution supersampled renders (~15 s)
+
 RING_WAVELENGTHS = (400.0, 450.0, 550.0, 650.0, 750.0)
 
 

@@ -265,6 +265,7 @@ def test_filters_only_remove_light():
 # --- speed and the hard rule --------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_speed_100k_in_20_s_scaled_down():
     sample_spds(200, np.random.default_rng(0))  # warm the cached tables
     n = 25_000

@@ -11,7 +11,8 @@ from training.simulation.spectral_exr import channel_name, read_spectral_exr, wr
 
 
 def test_channel_names_follow_the_fichet_layout():
-    fichet = pytest.importorskip("colour.io.fichet2021")
+    from colour.io import fichet2021 as fichet
+
     pattern = re.compile(fichet.PATTERN_FICHET2021)
     for wl in (380.0, 552.5, 780.0):
         name = channel_name(wl)

@@ -22,6 +22,7 @@ def test_camera_split_holds_out_a_quarter():
     assert dataset.generic_sensitivities().max() == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_training_never_imports_the_measured_lamps():
     """Measured lamps are for evaluation only: no training module may load them."""
     code = ("import sys, training.learning.train, training.learning.dataset, training.learning.spd_prior, training.learning.tune_solver;"

@@ -182,12 +182,3 @@ def curve_node(group: bpy.types.NodeTree | None) -> bpy.types.Node | None:
         return None
     node = group.nodes.get(CURVE_NODE)
     return node if node is not None and node.bl_idname == "ShaderNodeFloatCurve" else None
-
-
-def power_at(group: bpy.types.NodeTree, wavelength_nm: float) -> float:
-    """What the "Power" output gives at a wavelength (the curve evaluated as Cycles would)."""
-    mapping = group.nodes[CURVE_NODE].mapping
-    x = (min(max(wavelength_nm, WAVELENGTH_MIN_NM), WAVELENGTH_MAX_NM) - WAVELENGTH_MIN_NM) / (
-        WAVELENGTH_MAX_NM - WAVELENGTH_MIN_NM)
-    mapping.initialize()
-    return float(mapping.evaluate(mapping.curves[0], x))

@@ -14,7 +14,6 @@ from typing import Any
 import bpy
 from bpy.props import (
     EnumProperty,
-    FloatVectorProperty,
     PointerProperty,
     StringProperty,
 )
@@ -24,7 +23,6 @@ from ..core.capture import DEFAULT_PRESET
 from ..core.illuminants import KNOWN_LAMPS
 
 NO_CALIBRATION = "NONE"
-SPD_SHAPE = (3, 27)  # 81 bands: Blender vector properties allow at most 32 per dimension
 
 PHOTO_FILTER_GLOB = "*.jpg;*.jpeg;*.png;*.tif;*.tiff;*.exr"
 SPECTRA_FILTER_GLOB = "*.csv;*.tsv;*.txt;*.json;*.spd;*.xml;*.spdx"
@@ -122,10 +120,7 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
 
     estimate_json: StringProperty(
         name="Last estimate", options={"HIDDEN"},
-        description="The last estimate as JSON (what the command line prints)")
-    spd: FloatVectorProperty(
-        name="SPD", size=SPD_SHAPE, min=0.0, options={"HIDDEN"},
-        description="Last estimated SPD, 380–780 nm in 5 nm steps, row by row (27 bands a row)")
+        description="The last estimate as JSON (what the command line prints), its SPD included")
     node_group: PointerProperty(name="Spectral light", type=bpy.types.NodeTree,
                                 description="Node group holding the last estimated SPD")
 

@@ -10,7 +10,7 @@ from typing import Any
 import bpy
 
 from ..core.spectral_grid import N_BANDS
-from .properties import GENERIC_CAMERA, NO_CALIBRATION, SPD_SHAPE
+from .properties import GENERIC_CAMERA, NO_CALIBRATION
 
 DEFAULT_WORKING_SPACE = "Linear Rec.709"
 
@@ -66,17 +66,11 @@ def has_estimate(operator: Any, context: Any) -> bool:
 
 
 def store_estimate(settings: Any, data: dict[str, Any]) -> None:
-    spd = valid_spd(data["spd"])
-    if spd is None:
+    """The estimate's JSON is the one place the scene keeps it (SPD included); readers go
+    through ``last_estimate``."""
+    if valid_spd(data["spd"]) is None:
         raise ValueError("estimate without a valid SPD")
     settings.estimate_json = json.dumps(data)
-    rows, cols = SPD_SHAPE
-    settings.spd = [spd[r * cols:(r + 1) * cols] for r in range(rows)]
-
-
-def spd_from_settings(settings: Any) -> list[float]:
-    """The float vector property flattened back to 81 values."""
-    return [float(v) for row in settings.spd for v in row]
 
 
 def reference(settings: Any) -> dict[str, Any] | None:
@@ -105,7 +99,6 @@ __all__ = [
     "valid_spd",
     "last_estimate",
     "store_estimate",
-    "spd_from_settings",
     "reference",
     "camera_choice",
     "calibration_choice",

@@ -243,11 +243,6 @@ def _good_if_unwritable(folder: Path, base: Base) -> Path | None:
 
 # --- toy models ------------------------------------------------------------------------------
 
-MODEL_VARIANTS = ("garbage-bytes", "missing-metadata", "metadata-not-json", "layout-mismatch",
-                  "metadata-prior-shape", "metadata-fusion-text", "wrong-inputs", "wrong-output-length",
-                  "nan-output")
-
-
 def write_toy_model(folder: Path, variant: str) -> Path:
     """``folder/cd_spectra.onnx`` + metadata, broken as ``variant`` says (or "ok": a valid toy
     model with the shipped name and layout: a flat SPD, whatever the input)."""
@@ -292,12 +287,6 @@ def write_toy_model(folder: Path, variant: str) -> Path:
 
 
 # --- the catalogue ---------------------------------------------------------------------------
-
-
-def _has_bpy() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("bpy") is not None
 
 
 def _case(name: str, category: str, what: str, build: Callable[[Path, Base], Path | None], expect: Expect,
@@ -351,7 +340,7 @@ CASES: tuple[Case, ...] = (
           "and the add-on register it, the bare API does not)",
           lambda f, b: _put(f / "float.tif", _tiff(b.linear.astype(np.float32))),
           Expect(PhotoError, ("no fallback decoder",)),
-          cli_expect=_result(min_confidence=0.5, cct=True) if _has_bpy() else None),
+          cli_expect=_result(min_confidence=0.5, cct=True)),
     _case("exr-nan-inf-negative", "format", "EXR with unclipped negative noise, 1 % NaN, 1 % +-Inf",
           lambda f, b: _write(f, "damaged.exr", _exr_damaged(b, np.random.default_rng(11)), "exr"),
           _result("NaN/Inf", max_confidence=0.99, cct=True)),
