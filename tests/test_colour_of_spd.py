@@ -17,7 +17,7 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.illuminants import daylight_spd, planck_spd
 from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
 
-colour = pytest.importorskip("colour")
+import colour
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 SPACES = {"Linear Rec.709": ("ITU-R BT.709", None), "Linear Rec.2020": ("ITU-R BT.2020", None),
