@@ -74,14 +74,20 @@ def test_household_bulb_is_close_to_cie_a():
 
 
 def test_known_lamps_are_peak_one_and_named():
-    assert list(il.KNOWN_LAMPS) == ["incandescent", "daylight", "daylight-d65"]
+    assert list(il.KNOWN_LAMPS) == ["incandescent", "daylight", "daylight-d65", "daylight-d50", "daylight-d75"]
     for name, lamp in il.KNOWN_LAMPS.items():
         spd = il.known_lamp_spd(name)
         assert spd.shape == WAVELENGTHS_NM.shape and spd.max() == 1.0 and spd.min() > 0
         assert lamp.label and lamp.description and f"{lamp.temperature_k:.0f} K" in lamp.description
 
 
-@given(st.text(max_size=20).filter(lambda s: s not in il.KNOWN_LAMPS))
+@pytest.mark.parametrize(("alias", "key"), [("A", "incandescent"), ("d50", "daylight-d50"), ("D55", "daylight"),
+                                            (" D65 ", "daylight-d65"), ("D75", "daylight-d75")])
+def test_cie_names_reach_the_known_lamps(alias, key):
+    assert np.array_equal(il.known_lamp_spd(alias), il.known_lamp_spd(key))
+
+
+@given(st.text(max_size=20).filter(lambda s: s not in il.KNOWN_LAMPS and s.strip().lower() not in il.LAMP_ALIASES))
 def test_unknown_lamp_names_the_choices(name):
     with pytest.raises(CDSpectraError, match="choose one of incandescent, daylight, daylight-d65"):
         il.known_lamp_spd(name)

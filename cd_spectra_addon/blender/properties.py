@@ -37,7 +37,7 @@ LIGHT_TYPES = [
 # The core's known lamps (one table), plus a metered spectrum file.
 REFERENCE_LAMPS = [
     *((key, lamp.label, lamp.description, i) for i, (key, lamp) in enumerate(KNOWN_LAMPS.items())),
-    ("FILE", "Spectrum file", "The lamp's spectrum measured by a meter (CSV, JSON, pbrt, TM-27-14)", len(KNOWN_LAMPS)),
+    ("FILE", "Spectrum file", "The lamp's spectrum measured by a meter (CSV, JSON, pbrt, TM-27-14)", 99),
 ]
 
 # Blender keeps only pointers to enum item strings: the lists must stay alive in Python.

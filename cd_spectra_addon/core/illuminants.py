@@ -28,6 +28,7 @@ __all__ = [
     "C2_ITS90_NM_K",
     "KNOWN_LAMPS",
     "KnownLamp",
+    "LAMP_ALIASES",
     "planck",
     "planck_radiance",
     "planck_spd",
@@ -122,13 +123,20 @@ KNOWN_LAMPS: dict[str, KnownLamp] = {
     "daylight": KnownLamp("Direct sunlight (D55)", "Direct sun on a clear day: CIE D55, 5503 K",
                           "daylight", 5503.0),
     "daylight-d65": KnownLamp("Overcast daylight (D65)", "Overcast sky: CIE D65, 6504 K", "daylight", 6504.0),
+    "daylight-d50": KnownLamp("Warm daylight (D50)", "Morning or evening sun: CIE D50, 5003 K", "daylight", 5003.0),
+    "daylight-d75": KnownLamp("North-sky daylight (D75)", "Shade under a blue sky: CIE D75, 7504 K", "daylight",
+                              7504.0),
 }
+
+LAMP_ALIASES: dict[str, str] = {"a": "incandescent", "d50": "daylight-d50", "d55": "daylight",
+                                "d65": "daylight-d65", "d75": "daylight-d75"}
+"""The CIE names people type (``--known-lamp A``), case-insensitive, for the keys above."""
 
 
 def known_lamp_spd(name: str) -> NDArray[np.float64]:
     """SPD (peak 1) of a lamp in :data:`KNOWN_LAMPS`; CDSpectraError naming the choices otherwise."""
-    lamp = KNOWN_LAMPS.get(name)
+    lamp = KNOWN_LAMPS.get(name) or KNOWN_LAMPS.get(LAMP_ALIASES.get(str(name).strip().lower(), ""))
     if lamp is None:
         raise CDSpectraError(f"unknown reference lamp {name!r}; choose one of {', '.join(KNOWN_LAMPS)} "
-                             "or an SPD file")
+                             f"(or {', '.join(k.upper() for k in LAMP_ALIASES)}) or an SPD file")
     return lamp.spd()
