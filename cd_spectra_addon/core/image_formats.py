@@ -33,7 +33,7 @@ from .errors import PhotoError
 
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
-    "MAX_FILE_BYTES", "MAX_PIXELS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
+    "MAX_FILE_BYTES", "MAX_PIXELS", "RAW_EXTENSIONS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
     "pillow_header", "pillow_pixels", "exif_from_pillow", "tiff_header", "exr_header", "exr_pixels",
     "array_pixels",
 ]
@@ -51,8 +51,9 @@ DECODE_ERRORS: tuple[type[BaseException], ...] = (
     IndexError, KeyError, TypeError, ZeroDivisionError, OverflowError,
 )
 
-_RAW_EXTENSIONS = {".cr2", ".cr3", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".dng", ".orf", ".rw2",
-                   ".raf", ".pef", ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc", ".mrw", ".rwl"}
+RAW_EXTENSIONS = frozenset({
+    ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".dng", ".orf", ".rw2", ".raf", ".pef",
+    ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc", ".mrw", ".rwl", ".mos", ".mef", ".dcr"})  # read by LibRaw
 
 
 class Unsupported(Exception):
@@ -141,10 +142,10 @@ def sniff_format(path: Path) -> str:
             head = fh.read(64)
     except OSError as exc:
         raise PhotoError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    supported = "supported: JPEG, PNG, TIFF, OpenEXR"
-    if path.suffix.lower() in _RAW_EXTENSIONS:
-        raise PhotoError(f"{path}: camera raw files are not supported; convert it first, e.g. "
-                         f"`dcraw -4 -T` (16-bit linear TIFF), or export a TIFF/PNG/JPEG")
+    supported = "supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR and camera raw (CR2, CR3, NEF, ARW, RAF, ORF, RW2, DNG, ...)"
+    if path.suffix.lower() in RAW_EXTENSIONS or (head[4:8] == b"ftyp" and head[8:12] == b"crx ") \
+            or head.startswith(b"FUJIFILMCCD-RAW"):
+        return "raw"
     if head.startswith(b"\xff\xd8\xff"):
         return "jpeg"
     if head.startswith(b"\x89PNG\r\n\x1a\n"):
@@ -170,12 +171,10 @@ def _other_format(head: bytes) -> str | None:
             return "HEIC/HEIF"
         if brand in (b"avif", b"avis"):
             return "AVIF"
-        if brand == b"crx ":
-            return "Canon CR3 raw"
     known = [(b"GIF8", "GIF"), (b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
              (b"#?RGBE", "Radiance HDR"), (b"\x00\x00\x00\x0cjP  ", "JPEG 2000"),
              (b"\xff\x4f\xff\x51", "JPEG 2000"),
-             (b"FUJIFILMCCD-RAW", "Fujifilm raw"), (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
+             (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
              (b"\x00\x00\x00\x0cJXL ", "JPEG XL")]
     for magic, name in known:
         if head.startswith(magic):

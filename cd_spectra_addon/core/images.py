@@ -70,6 +70,7 @@ from .image_formats import (
     array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, open_pillow, pillow_header,
     pillow_pixels, sniff_format, tiff_header,
 )
+from .raw_files import read_raw
 from .srgb import srgb_decode
 
 __all__ = [
@@ -100,6 +101,8 @@ class LinearImage:
     exif: ExifInfo
     path: str
     is_grey: bool = False  # no colour information: the spectrum cannot be estimated well
+    processed: bool = False  # white balance / colour matrix / tone curve applied by the camera or an editor
+    processed_reason: str = ""  # why the file is believed processed (for the user's warning)
 
 
 def register_decoder(func: Decoder) -> None:
@@ -125,6 +128,8 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
     name = os.fspath(path)
     file = check_file(name)
     fmt = sniff_format(file)
+    if fmt == "raw":
+        return _load_raw(file, name, int(max_side))
     try:
         with ExitStack() as stack:
             return _load(file, name, fmt, int(max_side), transfer, stack)
@@ -138,6 +143,29 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
 
 
 _FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR"}
+
+
+def _load_raw(file: Path, name: str, max_side: int) -> LinearImage:
+    """Camera raw: binned linear sensor RGB (:mod:`.raw_files`), box-averaged to ``max_side``."""
+    photo = read_raw(file)
+    height, width = photo.rgb.shape[:2]
+    box = max(1, _ceil_div(max(width, height), max_side))
+    h, w = height // box, width // box
+    if min(h, w) * box * photo.binning < MIN_SIDE:
+        raise PhotoError(f"{name}: the image is too small ({width}x{height} after binning); the disc needs at least "
+                         f"{MIN_SIDE} pixels on the short side")
+    rgb = _box_sum(photo.rgb[: h * box, : w * box], box) * np.float32(1.0 / (box * box))
+    saturated = _box_any(photo.saturated[: h * box, : w * box], box)
+    if float(np.max(rgb)) < BLACK_LEVEL:
+        raise PhotoError(f"{name}: photo is black — no light reached the camera")
+    orientation = photo.exif.orientation or 1
+    rgb, saturated = _orient(rgb, orientation), _orient(saturated, orientation)
+    reason = ("a linear (demosaiced) DNG: the phone or converter that wrote it may have processed its colours"
+              if photo.linear_dng else "")
+    return LinearImage(
+        rgb=np.ascontiguousarray(rgb, dtype=np.float32), saturated=np.ascontiguousarray(saturated),
+        invalid=np.zeros(saturated.shape, bool), scale=float(box * photo.binning), original_size=photo.original_size,
+        encoding="linear-raw", exif=photo.exif, path=name, processed=photo.linear_dng, processed_reason=reason)
 
 
 def _reason(exc: BaseException) -> str:

@@ -1,0 +1,107 @@
+"""Real camera files: raw/DNG through LibRaw (rawpy), HEIC through libheif (pillow-heif).
+
+DNGs are written by training/simulation/dng.py from known linear values and read back by the
+product's loader through rawpy — no stub anywhere: black and white levels, CFA layouts,
+saturation per photosite and EXIF must all survive LibRaw's parser.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cd_spectra_addon.core.errors import PhotoError
+from cd_spectra_addon.core.images import load_photo
+from cd_spectra_addon.core.raw_files import SATURATION_FRACTION
+from training.simulation.dng import dng_bytes, write_dng
+
+RNG = np.random.default_rng(11)
+
+
+def _smooth(h: int = 64, w: int = 96, lo: float = 0.03, hi: float = 0.9) -> np.ndarray:
+    y, x = np.mgrid[0:h, 0:w]
+    base = np.stack([np.sin(x / 9.0 + c) * np.cos(y / 13.0 - c) for c in (0.0, 1.1, 2.3)], axis=-1)
+    return lo + (hi - lo) * (base + 1) / 2
+
+
+def test_dng_round_trip_linear_values_levels_and_exif(tmp_path):
+    rgb = _smooth()
+    path = write_dng(tmp_path / "IMG_0001.DNG", rgb, black=512, white=15000, focal_length_mm=50.0,
+                     focal_plane_px_per_mm=200.0, make="Canon", model="EOS 5D Mark III")
+    image = load_photo(path, max_side=4096)
+    assert image.rgb.shape == rgb.shape
+    assert image.scale == 2.0  # one 2×2 Bayer cell per loaded pixel
+    assert image.original_size == (2 * rgb.shape[1], 2 * rgb.shape[0])
+    assert image.encoding == "linear-raw" and not image.processed
+    # Black level subtracted and scaled by the white level: quantisation is 1/14488 of full scale.
+    np.testing.assert_allclose(image.rgb, rgb, atol=1.5 / (15000 - 512))
+    assert not image.saturated.any()
+    assert image.exif.focal_length_mm == pytest.approx(50.0)
+    assert image.exif.focal_plane_px_per_mm == pytest.approx(200.0)
+    assert (image.exif.make, image.exif.model) == ("Canon", "EOS 5D Mark III")
+
+
+@pytest.mark.parametrize("pattern", [(0, 1, 1, 2), (2, 1, 1, 0), (1, 0, 2, 1), (1, 2, 0, 1)])
+def test_every_bayer_layout_bins_to_the_same_rgb(tmp_path, pattern):
+    rgb = _smooth(32, 48)
+    image = load_photo(write_dng(tmp_path / "x.dng", rgb, pattern=pattern), max_side=4096)
+    np.testing.assert_allclose(image.rgb, rgb, atol=2e-4)
+
+
+def test_saturation_is_read_per_photosite_from_the_white_level(tmp_path):
+    rgb = _smooth(32, 48, 0.05, 0.7)
+    rgb[5, 7, 2] = 1.4  # only the blue photosite of one cell clips
+    rgb[20, 30] = (SATURATION_FRACTION + 0.005, 0.2, 0.2)  # red just above the clip margin
+    rgb[10, 10] = (SATURATION_FRACTION - 0.01, 0.2, 0.2)  # just below: bright, not clipped
+    image = load_photo(write_dng(tmp_path / "s.dng", rgb, black=0, white=4095, seed=None), max_side=4096)
+    assert {tuple(p) for p in np.argwhere(image.saturated)} == {(5, 7), (20, 30)}
+    assert image.rgb[5, 7, 2] == pytest.approx(1.0, abs=1e-3)  # clipped at white
+
+
+def test_reduction_box_averages_linear_light_and_keeps_saturation(tmp_path):
+    rgb = _smooth(96, 128, 0.05, 0.8)
+    rgb[40, 41, 0] = 2.0
+    image = load_photo(write_dng(tmp_path / "r.dng", rgb), max_side=32)
+    assert image.rgb.shape == (24, 32, 3) and image.scale == 8.0
+    expected = rgb.reshape(24, 4, 32, 4, 3).mean(axis=(1, 3))
+    expected[10, 10, 0] = (rgb[40:44, 40:44, 0].sum() - 2.0 + 1.0) / 16  # the clipped site reads 1.0
+    np.testing.assert_allclose(image.rgb, expected, atol=2e-4)
+    assert np.argwhere(image.saturated).tolist() == [[10, 10]]
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(black=st.integers(0, 4096), span=st.integers(1000, 60000), seed=st.integers(0, 2**16))
+def test_any_black_and_white_level_gives_the_same_linear_light(tmp_path, black, span, seed):
+    white = min(65535, black + span)
+    rgb = np.random.default_rng(seed).uniform(0.0, 0.95, (64, 64, 3))
+    image = load_photo(write_dng(tmp_path / "h.dng", rgb, black=black, white=white, seed=seed), max_side=4096)
+    np.testing.assert_allclose(image.rgb, rgb, atol=1.0 / (white - black) + 1e-6)
+    assert np.all(np.isfinite(image.rgb))
+
+
+def test_linear_dng_is_read_and_flagged_processed(tmp_path):
+    rgb = _smooth(80, 100)
+    image = load_photo(write_dng(tmp_path / "phone.dng", rgb, linear=True, make="Apple", model="iPhone 15 Pro"),
+                       max_side=4096)
+    assert image.scale == 1.0 and image.processed
+    assert "linear" in image.processed_reason and "DNG" in image.processed_reason
+    np.testing.assert_allclose(image.rgb, rgb, atol=1e-4)
+    assert image.exif.make == "Apple"
+
+
+@pytest.mark.parametrize("name,cut", [("cut.dng", 0.5), ("head.nef", 0.02), ("IMG.CR2", None)])
+def test_damaged_raw_files_are_refused_with_a_message(tmp_path, name, cut):
+    data = dng_bytes(_smooth(64, 64))
+    data = RNG.bytes(5000) if cut is None else data[: int(len(data) * cut)]
+    (tmp_path / name).write_bytes(data)
+    with pytest.raises(PhotoError, match="LibRaw cannot read this raw file"):
+        load_photo(tmp_path / name)
+
+
+def test_black_raw_photo_is_refused(tmp_path):
+    with pytest.raises(PhotoError, match="black"):
+        load_photo(write_dng(tmp_path / "dark.dng", np.zeros((64, 64, 3)), seed=None))
