@@ -22,9 +22,9 @@ from training.simulation.dng import dng_bytes, write_dng
 RNG = np.random.default_rng(11)
 
 
-def _smooth(h: int = 64, w: int = 96, lo: float = 0.03, hi: float = 0.9) -> np.ndarray:
+def _smooth(h: int = 64, w: int = 96, lo: float = 0.03, hi: float = 0.9, period: float = 9.0) -> np.ndarray:
     y, x = np.mgrid[0:h, 0:w]
-    base = np.stack([np.sin(x / 9.0 + c) * np.cos(y / 13.0 - c) for c in (0.0, 1.1, 2.3)], axis=-1)
+    base = np.stack([np.sin(x / period + c) * np.cos(y / (1.4 * period) - c) for c in (0.0, 1.1, 2.3)], axis=-1)
     return lo + (hi - lo) * (base + 1) / 2
 
 
@@ -105,3 +105,34 @@ def test_damaged_raw_files_are_refused_with_a_message(tmp_path, name, cut):
 def test_black_raw_photo_is_refused(tmp_path):
     with pytest.raises(PhotoError, match="black"):
         load_photo(write_dng(tmp_path / "dark.dng", np.zeros((64, 64, 3)), seed=None))
+
+
+# --- HEIC / HEIF ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fmt,encoding", [("heic", "srgb-8"), ("heic10", "srgb-16")])
+def test_heic_8_and_10_bit_round_trip_through_libheif(tmp_path, fmt, encoding):
+    from training.simulation.photo import exif_for, write_photo
+
+    linear = _smooth(128, 192, 0.02, 0.8, period=40.0)  # colour as broad as a CD's rainbow at full size
+    linear[100:120, 20:60] = 1.0  # a clipped highlight
+    path = tmp_path / "IMG_0002.HEIC"
+    write_photo(path, linear, fmt, exif_for(6.8, 9.8, 192, "Apple_iPhone 15 Pro"), quality=95)
+    image = load_photo(path, max_side=4096)
+    assert image.encoding == encoding and image.rgb.shape == linear.shape
+    assert image.exif.make == "Apple" and image.exif.focal_length_mm == pytest.approx(6.8)
+    smooth = ~np.zeros(linear.shape[:2], bool)
+    smooth[96:124, 16:64] = False  # HEVC rings around the patch's edges
+    error = (image.rgb - linear)[smooth]
+    assert float(np.mean(np.abs(error))) < 0.005  # sRGB curve undone; what is left is the lossy codec
+    assert np.all(np.abs(error.mean(axis=0)) < 0.002)  # and no colour bias (YCbCr matrix, range, curve)
+    assert image.saturated[104:116, 24:56].all() and not image.saturated[:80].any()
+
+
+def test_damaged_heic_is_refused_with_a_message(tmp_path):
+    from training.simulation.photo import encode_photo
+
+    data = encode_photo(_smooth(), "heic")
+    (tmp_path / "cut.heic").write_bytes(data[: len(data) // 2])
+    with pytest.raises(PhotoError, match="HEIC"):
+        load_photo(tmp_path / "cut.heic")

@@ -34,7 +34,7 @@ from .errors import PhotoError
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
     "MAX_FILE_BYTES", "MAX_PIXELS", "RAW_EXTENSIONS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
-    "pillow_header", "pillow_pixels", "exif_from_pillow", "tiff_header", "exr_header", "exr_pixels",
+    "pillow_header", "pillow_pixels", "exif_from_pillow", "heif_header", "heif_pixels", "tiff_header", "exr_header", "exr_pixels",
     "array_pixels",
 ]
 
@@ -54,6 +54,11 @@ DECODE_ERRORS: tuple[type[BaseException], ...] = (
 RAW_EXTENSIONS = frozenset({
     ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".dng", ".orf", ".rw2", ".raf", ".pef",
     ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc", ".mrw", ".rwl", ".mos", ".mef", ".dcr"})  # read by LibRaw
+
+
+HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"mif1", b"msf1", b"heim", b"heis")
+# ITU-T H.273 transfer characteristics of HDR HEIFs: the sRGB curve does not undo them.
+_HDR_TRANSFERS = {16: "PQ", 18: "HLG"}
 
 
 class Unsupported(Exception):
@@ -154,6 +159,8 @@ def sniff_format(path: Path) -> str:
         return "tiff"
     if head.startswith(b"v/1\x01"):
         return "exr"
+    if head[4:8] == b"ftyp" and head[8:12] in HEIF_BRANDS:
+        return "heif"
     other = _other_format(head)
     if other:
         raise PhotoError(f"{path}: {other} files are not supported ({supported})")
@@ -167,8 +174,6 @@ def sniff_format(path: Path) -> str:
 def _other_format(head: bytes) -> str | None:
     if head[4:8] == b"ftyp":
         brand = head[8:12]
-        if brand in (b"heic", b"heix", b"hevc", b"mif1", b"msf1", b"heim", b"heis"):
-            return "HEIC/HEIF"
         if brand in (b"avif", b"avis"):
             return "AVIF"
     known = [(b"GIF8", "GIF"), (b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
@@ -363,12 +368,19 @@ def exif_from_pillow(im: Any) -> ExifInfo:
     """The few EXIF fields we use. Damaged EXIF is metadata we can do without: it yields None
     fields, never a failure to load the photo."""
     try:
-        exif = im.getexif()
-        sub = exif.get_ifd(0x8769)
+        return exif_from_tags(im.getexif())
     except DECODE_ERRORS:
         return ExifInfo()
+
+
+def exif_from_tags(exif: Any, container_orientation: bool = False) -> ExifInfo:
+    """ExifInfo from a Pillow ``Image.Exif``. ``container_orientation``: the container already
+    rotated the pixels (HEIF's irot/imir, applied by libheif), so EXIF orientation is ignored."""
+    sub = exif.get_ifd(0x8769)
     orientation = exif.get(0x0112)
     orientation = orientation if isinstance(orientation, int) and 1 <= orientation <= 8 else None
+    if container_orientation:
+        orientation = None
     focal_plane = _number(sub.get(0xA20E))
     unit = sub.get(0xA210, 2)  # EXIF default: inches
     per_mm = _UNIT_PER_MM.get(unit) if isinstance(unit, int) else None
@@ -380,6 +392,59 @@ def exif_from_pillow(im: Any) -> ExifInfo:
         model=_text(exif.get(0x0110)),
         orientation=orientation,
     )
+
+
+# --- HEIC / HEIF ------------------------------------------------------------------------------
+
+
+def heif_header(path: Path) -> tuple[PhotoHeader, Any]:
+    """Header of a HEIC/HEIF file through libheif (pillow-heif): size, bit depth (8, or 10/12
+    handed out as 16-bit codes), EXIF. The pixels are decoded later by :func:`heif_pixels`."""
+    try:
+        import pillow_heif
+    except ImportError as exc:
+        raise PhotoError(f"{path}: reading HEIC/HEIF needs the pillow-heif package, which is not installed "
+                         f"({exc}); install it or export the photo as JPEG") from None
+    heif = pillow_heif.open_heif(path, convert_hdr_to_8bit=False)
+    width, height = heif.size
+    depth = int(heif.info.get("bit_depth") or 8)
+    exif = ExifInfo()
+    raw_exif = heif.info.get("exif")
+    if raw_exif:
+        from PIL import Image
+
+        try:
+            tags = Image.Exif()
+            tags.load(raw_exif)
+            exif = exif_from_tags(tags, container_orientation=True)
+        except DECODE_ERRORS:
+            exif = ExifInfo()
+    channels = 1 if heif.mode in ("L", "I;16", "I;16L") else 3
+    return PhotoHeader(str(path), "heif", width, height, 8 if depth <= 8 else 16, channels, "srgb", exif), heif
+
+
+def heif_hdr_transfer(heif: Any) -> str | None:
+    """"PQ"/"HLG" when the file declares an HDR transfer curve (read as sRGB: approximate)."""
+    nclx = heif.info.get("nclx_profile") or {}
+    return _HDR_TRANSFERS.get(int(nclx.get("transfer_characteristics", 0) or 0))
+
+
+def heif_pixels(heif: Any, header: PhotoHeader) -> Pixels:
+    data = np.asarray(heif)
+    if data.ndim == 2:
+        data = data[..., None]
+    if data.shape[:2] != (header.height, header.width):
+        raise Unsupported(f"libheif returned {data.shape[1]}x{data.shape[0]} pixels for a "
+                          f"{header.width}x{header.height} image")
+    dtype = np.uint8 if header.bits == 8 else np.uint16
+    if data.dtype != dtype:
+        raise Unsupported(f"unexpected HEIF sample type {data.dtype} for {header.bits}-bit codes")
+    channels = header.channels
+
+    def read(y0: int, y1: int) -> NDArray[Any]:
+        return data[y0:y1, :, :channels]
+
+    return Pixels(header.width, header.height, channels, header.bits, 1, read)
 
 
 # --- TIFF header (for files Pillow cannot open, before a fallback decoder reads them) ---------

@@ -22,7 +22,9 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
   −1…−2 %, 10 px −4…−7 %. CD rainbows at 24 MP are far broader than the 4-px block.
 * **Linearisation.** 8-bit: sRGB. 16-bit PNG: sRGB unless gAMA says 1.0 (and no sRGB/iCCP).
   16-bit TIFF: linear without an ICC profile (dcraw ``-4 -T``), sRGB with one. EXR/float TIFF:
-  as stored (negative values are kept: clipping noise at 0 would bias dark bins).
+  as stored (negative values are kept: clipping noise at 0 would bias dark bins). HEIC/HEIF
+  (libheif through pillow-heif): sRGB curve; 10/12-bit samples come as 16-bit codes. Camera
+  raw: :mod:`.raw_files` (binned linear sensor RGB, its own saturation from the white level).
   ``transfer="srgb"|"linear"`` overrides. Integer codes go through a float32 LUT.
 * **16-bit colour.** Pillow truncates 16-bit RGB to 8 bits; :mod:`.image_formats` recovers the
   low bytes with a second pass of Pillow's own decoder (opposite byte order), bit-exact. For a
@@ -67,7 +69,8 @@ from numpy.typing import NDArray
 from .errors import PhotoError
 from .image_formats import (
     DECODE_ERRORS, MAX_PIXELS, MIN_SIDE, DecodedPixels, ExifInfo, PhotoHeader, Pixels, Unsupported,
-    array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, open_pillow, pillow_header,
+    array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, heif_header, heif_pixels, open_pillow,
+    pillow_header,
     pillow_pixels, sniff_format, tiff_header,
 )
 from .raw_files import read_raw
@@ -142,7 +145,7 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
                          f"truncated or an unsupported variant ({_reason(exc)})") from exc
 
 
-_FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR"}
+_FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR", "heif": "HEIC/HEIF"}
 
 
 def _load_raw(file: Path, name: str, max_side: int) -> LinearImage:
@@ -178,8 +181,11 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
     im: Any = None
     sampling: dict[str, tuple[int, int]] = {}
     fallback_reason: Unsupported | None = None
+    heif: Any = None
     if fmt == "exr":
         header, sampling = exr_header(file)
+    elif fmt == "heif":
+        header, heif = heif_header(file)
     else:
         try:
             im = keep(open_pillow(file, fmt))
@@ -199,6 +205,8 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
         try:
             if fmt == "exr":
                 pixels = exr_pixels(file, header, sampling)
+            elif fmt == "heif":
+                pixels = heif_pixels(heif, header)
             else:
                 pixels = pillow_pixels(im, file, fmt, header, draft, keep)
         except Unsupported as exc:

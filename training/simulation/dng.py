@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["mosaic", "dng_bytes", "write_dng", "CFA_RGGB"]
+__all__ = ["mosaic", "dng_bytes", "write_dng", "tiff16_bytes", "CFA_RGGB"]
 
 CFA_RGGB = (0, 1, 1, 2)  # TIFF/EP CFAPattern colours: 0 red, 1 green, 2 blue
 
@@ -102,7 +102,7 @@ def dng_bytes(
     samples = 3 if linear else 1
     pixels = codes.tobytes()
 
-    ifd0, exif = _Ifd(), _Ifd()
+    ifd0 = _Ifd()
     ifd0.add(254, 4, 0)  # NewSubFileType: main image
     ifd0.add(256, 4, width)
     ifd0.add(257, 4, height)
@@ -132,6 +132,11 @@ def dng_bytes(
     ifd0.add(50721, 10, [0.6722, -0.0635, -0.0963, -0.4287, 1.2460, 0.2028, -0.0908, 0.2162, 0.5668])
     ifd0.add(50778, 3, 21)  # CalibrationIlluminant1: D65
     ifd0.add(50728, 5, [0.5, 1.0, 0.7])  # AsShotNeutral
+    return _assemble(ifd0, _exif_ifd(focal_length_mm, focal_plane_px_per_mm), pixels)
+
+
+def _exif_ifd(focal_length_mm: float | None, focal_plane_px_per_mm: float | None) -> _Ifd:
+    exif = _Ifd()
     exif.add(0x829A, 5, 1 / 60)  # ExposureTime
     if focal_length_mm:
         exif.add(0x920A, 5, focal_length_mm)
@@ -139,21 +144,38 @@ def dng_bytes(
         exif.add(0xA20E, 5, focal_plane_px_per_mm)
         exif.add(0xA20F, 5, focal_plane_px_per_mm)
         exif.add(0xA210, 3, 4)  # millimetres
-    ifd0.add(34665, 4, 0)  # placeholders, patched below
-    ifd0.add(273, 4, 0)
+    return exif
 
+
+def _assemble(ifd0: _Ifd, exif: _Ifd, pixels: bytes) -> bytes:
+    """Header, IFD0, EXIF IFD, then the single strip; fills in the ExifIFD and StripOffsets."""
+    ifd0.add(34665, 4, 0)  # placeholders: the sizes do not depend on their values
+    ifd0.add(273, 4, 0)
     ifd0_at = 8
-    # Sizes do not depend on the EXIF offset's value, so place everything, then fill it in.
     exif_at = ifd0_at + ifd0.size()
     pixels_at = exif_at + exif.size()
     pixels_at += pixels_at % 2
     ifd0.entries = [e for e in ifd0.entries if e[0] not in (34665, 273)]
     ifd0.add(34665, 4, exif_at)
-    ifd0.add(273, 4, pixels_at)  # StripOffsets 
-    head = b"II*\x00" + struct.pack("<I", ifd0_at)
-    body = ifd0.pack(ifd0_at) + exif.pack(exif_at)
-    body = head + body
+    ifd0.add(273, 4, pixels_at)
+    body = b"II*\x00" + struct.pack("<I", ifd0_at) + ifd0.pack(ifd0_at) + exif.pack(exif_at)
     return body + b"\x00" * (pixels_at - len(body)) + pixels
+
+
+def tiff16_bytes(rgb16: NDArray[np.uint16], make: str = "", model: str = "", focal_length_mm: float | None = None,
+                 focal_plane_px_per_mm: float | None = None) -> bytes:
+    """A 16-bit RGB TIFF without ICC profile (what ``dcraw -4 -T`` writes), with EXIF."""
+    height, width, _ = rgb16.shape
+    pixels = np.ascontiguousarray(rgb16, dtype="<u2").tobytes()
+    ifd0 = _Ifd()
+    for tag, kind, value in [(256, 4, width), (257, 4, height), (258, 3, [16, 16, 16]), (259, 3, 1), (262, 3, 2),
+                             (277, 3, 3), (278, 4, height), (279, 4, len(pixels)), (284, 3, 1)]:
+        ifd0.add(tag, kind, value)
+    if make:
+        ifd0.add(271, 2, make)
+    if model:
+        ifd0.add(272, 2, model)
+    return _assemble(ifd0, _exif_ifd(focal_length_mm, focal_plane_px_per_mm), pixels)
 
 
 def write_dng(path: Path, rgb: NDArray[np.floating], **kwargs: object) -> Path:
