@@ -16,13 +16,14 @@ it bit-exactly; anything else goes to the registered fallback decoders (Blender'
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import struct
 import sys
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -75,6 +76,10 @@ class ExifInfo:
     make: str | None = None
     model: str | None = None
     orientation: int | None = None  # EXIF 1..8
+    software: str | None = None  # what wrote the file (camera firmware, phone OS, editor)
+    colour_space: int | None = None  # EXIF ColorSpace: 1 sRGB, 2 Adobe RGB, 0xFFFF uncalibrated
+    white_balance: int | None = None  # EXIF WhiteBalance: 0 auto, 1 manual — only cameras that balance write it
+    icc_profile: str | None = None  # the embedded ICC profile's description ("" if it has none)
 
 
 @dataclass(frozen=True)
@@ -365,12 +370,13 @@ _UNIT_PER_MM = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0, 5: 1000.0}  # FocalPlaneResolu
 
 
 def exif_from_pillow(im: Any) -> ExifInfo:
-    """The few EXIF fields we use. Damaged EXIF is metadata we can do without: it yields None
-    fields, never a failure to load the photo."""
+    """The few EXIF fields we use (and the ICC profile's name). Damaged EXIF is metadata we can
+    do without: it yields None fields, never a failure to load the photo."""
+    icc = icc_description(im.info.get("icc_profile"))
     try:
-        return exif_from_tags(im.getexif())
+        return replace(exif_from_tags(im.getexif()), icc_profile=icc)
     except DECODE_ERRORS:
-        return ExifInfo()
+        return ExifInfo(icc_profile=icc)
 
 
 def exif_from_tags(exif: Any, container_orientation: bool = False) -> ExifInfo:
@@ -391,7 +397,26 @@ def exif_from_tags(exif: Any, container_orientation: bool = False) -> ExifInfo:
         make=_text(exif.get(0x010F)),
         model=_text(exif.get(0x0110)),
         orientation=orientation,
+        software=_text(exif.get(0x0131)),
+        colour_space=_small_int(sub.get(0xA001)),
+        white_balance=_small_int(sub.get(0xA403)),
     )
+
+
+def _small_int(value: Any) -> int | None:
+    return value if isinstance(value, int) and 0 <= value <= 0xFFFF else None
+
+
+def icc_description(icc: bytes | None) -> str | None:
+    """The ICC profile's description, "" for a profile without one, None without a profile."""
+    if not icc:
+        return None
+    try:
+        from PIL import ImageCms
+
+        return str(ImageCms.ImageCmsProfile(io.BytesIO(icc)).profile.profile_description or "").strip()
+    except (ImportError, OSError, ValueError, TypeError, AttributeError):
+        return ""
 
 
 # --- HEIC / HEIF ------------------------------------------------------------------------------
@@ -419,6 +444,7 @@ def heif_header(path: Path) -> tuple[PhotoHeader, Any]:
             exif = exif_from_tags(tags, container_orientation=True)
         except DECODE_ERRORS:
             exif = ExifInfo()
+    exif = replace(exif, icc_profile=icc_description(heif.info.get("icc_profile")))
     channels = 1 if heif.mode in ("L", "I;16", "I;16L") else 3
     return PhotoHeader(str(path), "heif", width, height, 8 if depth <= 8 else 16, channels, "srgb", exif), heif
 

@@ -73,6 +73,7 @@ from .image_formats import (
     pillow_header,
     pillow_pixels, sniff_format, tiff_header,
 )
+from .processed import judge_processed
 from .raw_files import read_raw
 from .srgb import srgb_decode
 
@@ -218,7 +219,9 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
         pixels = _fallback(name, header, fallback_reason)
     if draft * box % pixels.draft:
         raise RuntimeError(f"decoder scaled by {pixels.draft}, which does not divide {draft * box}")
-    return _linearise(pixels, draft * box // pixels.draft, header, name, transfer)
+    image = _linearise(pixels, draft * box // pixels.draft, header, name, transfer)
+    processed, reason = judge_processed(fmt, image.encoding, image.exif, image.rgb, image.saturated)
+    return replace(image, processed=processed, processed_reason=reason)
 
 
 def _closer(stack: ExitStack) -> Callable[[Any], Any]:

@@ -86,6 +86,7 @@ def exif_from_tags(tags: dict[int, Any], focal_fallback: float | None, orientati
         make=_text(tags.get(0x010F)),
         model=_text(tags.get(0x0110)),
         orientation=orientation,
+        software=_text(tags.get(0x0131)),
     )
 
 
