@@ -42,6 +42,8 @@ GENERIC = "generic"
 # in the disc plane — all at confidence 1.0 before this check.
 CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
+# An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
+PROCESSED_CONFIDENCE = 0.5
 Progress = Callable[[float, str], None]
 
 __all__ = ["MAX_SIDE", "GENERIC", "estimate_image", "estimate_photo", "camera_for"]
@@ -220,6 +222,22 @@ def estimate_image(
     t3 = time.perf_counter()
     report(0.9, "Colour")
     confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source)
+    if image.processed and cal is None:
+        warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
+                        "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
+                        "is only approximate — shoot RAW, or take one calibration shot of a known lamp with the same "
+                        "camera settings (fixed white balance) and use it")
+        confidence *= PROCESSED_CONFIDENCE
+    elif image.processed and cal.pipeline is None:
+        warnings.append(f"this file was processed by the camera ({image.processed_reason}) but calibration "
+                        f"{cal.name!r} holds per-bin gains only, which cannot undo a colour matrix and tone curve: "
+                        "calibrate again from a photo taken the same way as this one (same file type and settings)")
+        confidence *= PROCESSED_CONFIDENCE
+    elif not image.processed and cal is not None and cal.pipeline is not None:
+        warnings.append(f"calibration {cal.name!r} was made from an in-camera JPEG/HEIC and undoes that camera "
+                        "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
+                        "same kind of file")
+        confidence *= PROCESSED_CONFIDENCE
     if unusable and mdl is not None and method == "model":
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
