@@ -198,3 +198,49 @@ def test_calibration_shot_undoes_an_in_camera_jpeg(tmp_path, capture):
     assert piped < 2.0 * native_mae
     _, mixed = mae(raw, cal)  # a JPEG calibration on a raw photo is flagged, not silently trusted
     assert any("unprocessed" in w for w in mixed.warnings) and mixed.confidence <= 0.5
+
+
+# --- the camera from EXIF ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("make,model,profile", [
+    ("Canon", "Canon EOS 5D Mark III", "Canon_EOS_5D_Mark_III"), ("NIKON CORPORATION", "NIKON D850", "Nikon_D850"),
+    ("NIKON CORPORATION", "NIKON Z f", "Nikon_Z_f"), ("SONY", "ILCE-7M3", "Sony_ILCE-7M3"),
+    ("FUJIFILM", "GFX 100", "Fujifilm_GFX_100"), ("Panasonic", "DC-GX9", "Panasonic_DC-GX9"),
+    ("Canon", "Canon EOS DIGITAL REBEL XTi", "Canon_Digital_Rebel_XTi"), ("Canon", "Canon EOS 250D", "Canon_EOS_200D_II"),
+    ("Arashi Vision", "Insta360 X5", "Arashi_Vision_Insta360_X5"), ("  canon ", "canon eos-1d x mark ii\x00",
+                                                                    "Canon_EOS-1D_X_Mark_II"),
+    ("Apple", "iPhone 15 Pro", None), ("Canon", "Canon EOS 5D Mark V", None), (None, None, None), ("", "", None),
+])
+def test_camera_from_exif_normalises_names(make, model, profile):
+    from cd_spectra_addon.core.cameras import camera_from_exif
+
+    assert camera_from_exif(make, model.replace("\x00", "") if model else model) == profile
+
+
+@settings(max_examples=200, deadline=None)
+@given(make=st.one_of(st.none(), st.text(max_size=40)), model=st.one_of(st.none(), st.text(max_size=60)))
+def test_camera_from_exif_never_fails_on_any_text(make, model):
+    from cd_spectra_addon.core.cameras import camera_from_exif, camera_names
+
+    assert camera_from_exif(make, model) in (None, *camera_names())
+
+
+def test_auto_camera_uses_exif_and_says_so_when_it_cannot(tmp_path, capture):
+    scene = capture[0]
+    spd = known_lamp_spd("incandescent")
+    matched = load_photo(_shoot(tmp_path, capture, spd, "canon", None, fmt="png"))
+    est = estimate_image(matched, preset=scene.preset, model=None, method="physics")
+    assert est.camera == DEFAULT_CAMERA and not any("camera profiles" in w for w in est.warnings)
+    scene_cam = scene.preset.camera
+    tags = photo.exif_for(scene_cam.focal_length_mm, scene_cam.sensor_width_mm, scene_cam.image_size_px[0],
+                          "Apple_iPhone 15 Pro")
+    img, _ = photo.expose(photo.linear_photo(capture[1], spd, CAMERA), 1.0, capture[2])
+    photo.write_photo(tmp_path / "phone.png", img, "png", tags)
+    phone = load_photo(tmp_path / "phone.png")
+    est = estimate_image(phone, preset=scene.preset, model="shipped", method="model")
+    assert est.camera == "generic"
+    assert any("Apple iPhone 15 Pro" in w and "not one of the 52" in w for w in est.warnings)
+    assert not any(w.startswith("generic camera profile") for w in est.warnings)
+    forced = estimate_image(phone, preset=scene.preset, camera="Nikon_D850", model=None, method="physics")
+    assert forced.camera == "Nikon_D850"

@@ -17,10 +17,10 @@ from numpy.typing import NDArray
 from .analysis import Analysis, prepare
 from .calibration import PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, Calibration, fit_gains, new_metadata, save_calibration
 from .camera_pipeline import CameraPipeline, fit_pipeline
-from .cameras import DEFAULT_CAMERA, CameraProfile
+from .cameras import CameraProfile
 from .capture import Preset, load_preset
 from .errors import CDSpectraError, NoDiscError
-from .estimate import MAX_SIDE, camera_for
+from .estimate import AUTO, MAX_SIDE, resolve_camera
 from .images import LinearImage, load_photo
 from .model import load_model
 from .spectral_grid import WAVELENGTHS_NM
@@ -70,15 +70,27 @@ def gains_from_image(image: LinearImage, reference_spd: NDArray[np.float64], pre
     return gains, analysis
 
 
+def _model_if_needed(camera: str) -> Any:
+    """The shipped model when the generic profile may be needed (it carries it), else None."""
+    if camera == "generic":
+        return load_model()
+    if camera == AUTO:
+        try:
+            return load_model()
+        except CDSpectraError:
+            return None  # resolve_camera falls back to the default camera's profile
+    return None
+
+
 def measure_gains(path: str | Path, reference_spd: NDArray[np.float64], preset: str = "cd-default",
                   camera: str = "") -> tuple[NDArray[np.float64], str, str, dict[str, Any], CameraPipeline | None]:
     """(gains, preset name, camera name, metadata, pipeline) from a photo file of a lamp whose
     SPD is known; the pipeline is fitted when the file is an in-camera rendering."""
     _check_reference(reference_spd)  # before the photo is read: the cheaper mistake first
-    camera = camera or DEFAULT_CAMERA
+    camera = camera or AUTO
     preset_obj = load_preset(preset)
     image = load_photo(path, max_side=MAX_SIDE)
-    cam, generic = camera_for(camera, load_model() if camera == "generic" else None)
+    cam, generic, camera, _ = resolve_camera(camera, image, _model_if_needed(camera))
     gains, pipeline, analysis = fit_calibration(image, reference_spd, preset_obj, cam, generic)
     extra: dict[str, Any] = {"rainbow_contrast": float(analysis.fit.rainbow_contrast)}
     if pipeline is not None:
