@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .analysis import Analysis, prepare
-from .calibration import PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, Calibration, fit_gains, new_metadata, save_calibration
+from .calibration import PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, PIPELINE_SMOOTH_BINS, Calibration, fit_gains, new_metadata, save_calibration
 from .camera_pipeline import CameraPipeline, fit_pipeline
 from .cameras import CameraProfile
 from .capture import Preset, load_preset
@@ -59,7 +59,8 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
         undo = Calibration("pipeline", np.ones_like(predicted), preset.name, camera.name, {}, fitted)
         analysis = prepare(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=analysis.fit)
     predicted = np.einsum("bcl,l->bc", analysis.matrix, ref)
-    limits = {} if fitted is None else {"min_signal": PIPELINE_MIN_SIGNAL, "limits": PIPELINE_GAIN_LIMITS}
+    limits = {} if fitted is None else {"min_signal": PIPELINE_MIN_SIGNAL, "limits": PIPELINE_GAIN_LIMITS,
+                                           "smooth_bins": PIPELINE_SMOOTH_BINS}
     return fit_gains(analysis.uncalibrated.values, analysis.uncalibrated.valid, predicted, **limits), fitted, analysis
 
 
