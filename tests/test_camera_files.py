@@ -136,3 +136,37 @@ def test_damaged_heic_is_refused_with_a_message(tmp_path):
     (tmp_path / "cut.heic").write_bytes(data[: len(data) // 2])
     with pytest.raises(PhotoError, match="HEIC"):
         load_photo(tmp_path / "cut.heic")
+
+
+# --- a DNG through the whole estimator -------------------------------------------------------
+
+
+def test_dng_of_a_rendered_capture_estimates_like_the_exr(tmp_path):
+    """Same capture as a Bayer DNG (noise per photosite) and as an EXR: the raw path — binning,
+    levels, focal length from FocalPlaneXResolution per photosite, camera from EXIF — gives the
+    same spectrum as the linear float file."""
+    from cd_spectra_addon.core.calibration import known_lamp_spd
+    from cd_spectra_addon.core.capture import Scene, load_preset
+    from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
+    from cd_spectra_addon.core.colour import compare_spds
+    from cd_spectra_addon.core.estimate import estimate_photo
+    from training.simulation import photo
+    from training.simulation.dng import mosaic
+    from training.simulation.render_numpy import render_cube
+
+    scene = Scene(load_preset("cd-default").with_image_size(128))
+    cube = render_cube(scene, supersample=2)
+    spd = known_lamp_spd("incandescent")
+    image, _ = photo.expose(photo.linear_photo(cube, spd, load_camera(DEFAULT_CAMERA)), 1.0, photo.track_mask(scene))
+    cam = scene.preset.camera
+    sites = np.minimum(photo.add_noise(mosaic(image), 0.005, np.random.default_rng(0)), 1.0)
+    dng = write_dng(tmp_path / "IMG_0003.CR2.dng", sites, black=2048, white=16383, make="Canon",
+                    model="Canon EOS 5D Mark III", focal_length_mm=cam.focal_length_mm,
+                    focal_plane_px_per_mm=2 * cam.image_size_px[0] / cam.sensor_width_mm)
+    photo.write_photo(tmp_path / "same.exr", np.minimum(photo.add_noise(image, 0.005, np.random.default_rng(1)), 1.0),
+                      "exr")
+    raw = estimate_photo(dng, model=None, method="physics")
+    exr = estimate_photo(tmp_path / "same.exr", model=None, method="physics", camera=DEFAULT_CAMERA)
+    assert raw.camera == DEFAULT_CAMERA and raw.extra["focal_px_source"] == "exif"
+    assert raw.disc.radius_px == pytest.approx(2 * exr.disc.radius_px, rel=0.02)  # in sensor photosites
+    assert compare_spds(raw.spd, spd)["mae_400_700"] < compare_spds(exr.spd, spd)["mae_400_700"] + 0.01

@@ -89,11 +89,11 @@ def dng_bytes(
 ) -> bytes:
     """A DNG of linear camera RGB (full scale 1.0 = ``white``, 0 = ``black``).
 
-    Mosaic DNGs have twice ``rgb``'s size per side (one 2×2 cell per pixel); linear DNGs its
-    size. Values are quantised to integer codes (with ±0.5 code dither when ``seed`` is not
+    Mosaic DNGs have twice ``rgb``'s size per side (one 2×2 cell per pixel), or take a (2H, 2W)
+    array of photosite values as it is (noise added per photosite); linear DNGs ``rgb``'s size. Values are quantised to integer codes (with ±0.5 code dither when ``seed`` is not
     None, so the mean is unbiased) and clipped at ``white`` like a sensor."""
     rgb = np.asarray(rgb, dtype=np.float64)
-    data = rgb if linear else mosaic(rgb, pattern)
+    data = rgb if linear or rgb.ndim == 2 else mosaic(rgb, pattern)
     codes = black + data * (white - black)
     if seed is not None:
         codes = codes + np.random.default_rng(seed).uniform(-0.5, 0.5, codes.shape)
