@@ -170,3 +170,33 @@ def test_dng_of_a_rendered_capture_estimates_like_the_exr(tmp_path):
     assert raw.camera == DEFAULT_CAMERA and raw.extra["focal_px_source"] == "exif"
     assert raw.disc.radius_px == pytest.approx(2 * exr.disc.radius_px, rel=0.02)  # in sensor photosites
     assert compare_spds(raw.spd, spd)["mae_400_700"] < compare_spds(exr.spd, spd)["mae_400_700"] + 0.01
+
+
+# --- hostile metadata and files --------------------------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=st.binary(max_size=600), prefix=st.sampled_from([b"", b"II*\x00", b"MM\x00*", b"II*\x00\x08\x00\x00\x00"]))
+def test_tiff_tag_reader_never_fails_on_any_bytes(data, prefix):
+    from cd_spectra_addon.core.tiff_tags import find_tiff_tags, read_tiff_tags
+
+    assert isinstance(read_tiff_tags(prefix + data), dict)
+    assert isinstance(find_tiff_tags(data + prefix + data), dict)
+
+
+_DNG = dng_bytes(np.full((40, 40, 3), 0.4), focal_length_mm=35.0, focal_plane_px_per_mm=100.0)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(edits=st.lists(st.tuples(st.integers(0, 1200), st.integers(0, 255)), min_size=1, max_size=8))
+def test_damaged_dng_headers_give_a_photo_or_a_photo_error(tmp_path, edits):
+    data = bytearray(_DNG)
+    for at, value in edits:
+        data[at] = value
+    (tmp_path / "hostile.dng").write_bytes(bytes(data))
+    try:
+        image = load_photo(tmp_path / "hostile.dng")
+    except PhotoError as exc:
+        assert "hostile.dng" in str(exc)
+    else:
+        assert np.all(np.isfinite(image.rgb))
