@@ -178,11 +178,34 @@ def run_row(shooter: _Shooter, row: Row, lamps: list[Lamp], model: Any, held: li
     return summary
 
 
+def load_seconds(tmp: Path) -> dict[str, float]:
+    """Best of two ``load_photo(max_side=1024)`` timings of a 24 MP Bayer DNG (uncompressed,
+    48 MB) and a 12 MP 8-bit HEIC, the sizes cameras and phones write."""
+    from training.simulation.photo import write_photo
+
+    rng = np.random.default_rng(0)
+    sites = rng.uniform(0.0, 0.8, (4000, 6000)).astype(np.float32)
+    (tmp / "big.dng").write_bytes(dng_bytes(sites, seed=None))
+    y, x = np.mgrid[0:3024, 0:4032]
+    smooth = np.stack([0.3 + 0.25 * np.sin(x / (70.0 + 20 * c) + y / 90.0) for c in range(3)], axis=-1)
+    write_photo(tmp / "big.heic", smooth, "heic")
+    out = {}
+    for name in ("big.dng", "big.heic"):
+        times = []
+        for _ in range(2):
+            t0 = time.perf_counter()
+            load_photo(tmp / name, max_side=1024)
+            times.append(time.perf_counter() - t0)
+        out[name] = min(times)
+    return out
+
+
 def _fmt(v: float, digits: int = 4) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
 
-def report(results: list[tuple[Row, dict[str, Any]]], lamps: int, size: int, seconds: float) -> str:
+def report(results: list[tuple[Row, dict[str, Any]]], lamps: int, size: int, seconds: float,
+           loads: dict[str, float]) -> str:
     by_label = {row.label: s for row, s in results}
     raw = by_label["DNG (raw, via rawpy), matched profile from EXIF"]["mae_400_700"]
     lines = [
@@ -201,7 +224,10 @@ def report(results: list[tuple[Row, dict[str, Any]]], lamps: int, size: int, sec
                      f"{s['mae_400_700'] / raw:.2f} | {_fmt(s['delta_uv_prime'])} | {s['confidence']:.2f} | "
                      f"{100 * s['processed_share']:.0f}% |")
     lines += ["", "Goals (issue 11): DNG as good as EXR; in-camera JPEG + one CIE A calibration within 1.3× of DNG; "
-              "generic profile + calibration within 1.3× of the matched profile.", ""]
+              "generic profile + calibration within 1.3× of the matched profile.", "",
+              f"Loading (`load_photo(max_side=1024)`, best of 2, this machine): 24 MP Bayer DNG (48 MB, uncompressed) "
+              f"{loads['big.dng']:.2f} s — rawpy unpack, 2×2 binning, 3×3 box; 12 MP 8-bit HEIC "
+              f"{loads['big.heic']:.2f} s — libheif decode, 4×4 box.", ""]
     return "\n".join(lines)
 
 
@@ -237,11 +263,12 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{row.label}: MAE {summary['mae_400_700']:.4f} (median {summary['mae_400_700_median']:.4f}) "
                   f"Δu'v' {summary['delta_uv_prime']:.4f} conf {summary['confidence']:.2f} "
                   f"[{time.perf_counter() - t1:.0f} s]", flush=True)
-    seconds = time.perf_counter() - t0
+        seconds = time.perf_counter() - t0
+        loads = load_seconds(Path(tmp)) if not args.rows and not args.synthetic else {}
     out = Path(args.out)
     if not args.rows and not args.synthetic:
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(report(results, len(lamps), args.size, seconds), encoding="utf-8")
+        out.write_text(report(results, len(lamps), args.size, seconds, loads), encoding="utf-8")
         out.with_suffix(".json").write_text(json.dumps([{"row": r.label, **s} for r, s in results], indent=1),
                                             encoding="utf-8")
         print(f"wrote {out}")
