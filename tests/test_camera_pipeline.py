@@ -244,3 +244,8 @@ def test_auto_camera_uses_exif_and_says_so_when_it_cannot(tmp_path, capture):
     assert not any(w.startswith("generic camera profile") for w in est.warnings)
     forced = estimate_image(phone, preset=scene.preset, camera="Nikon_D850", model=None, method="physics")
     assert forced.camera == "Nikon_D850"
+    other = Calibration("canon-cal", np.ones((105, 3)), scene.preset.name, DEFAULT_CAMERA, {})
+    mixed = estimate_image(phone, preset=scene.preset, camera="Nikon_D850", calibration=other, model=None,
+                           method="physics")
+    assert any("made with the Canon_EOS_5D_Mark_III profile" in w for w in mixed.warnings)
+    assert mixed.confidence < forced.confidence

@@ -94,8 +94,6 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
     Residuals are taken in the sRGB-encoded domain, where 8-bit codes have uniform steps; a
     small smoothness penalty on the curve's slopes keeps knots beyond the data tame. Refuses
     (CDSpectraError) when too few pixels carry light to fit 9 + K parameters."""
-    from scipy.optimize import least_squares
-
     obs = np.asarray(observed, np.float64).reshape(-1, 3)
     pred = np.asarray(predicted, np.float64).reshape(-1, 3)
     w = np.ones(obs.shape[0]) if weight is None else np.asarray(weight, np.float64).reshape(-1)
@@ -152,6 +150,42 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
             jac[3 * n + j, 10 + j] = penalty
         return jac
 
-    fit = least_squares(residual, x0, jac=jacobian, method="lm", x_scale="jac", max_nfev=200)
-    matrix = fit.x[:9].reshape(3, 3)
-    return CameraPipeline(matrix, knots, _curve(fit.x[9:]))
+    x = _levenberg_marquardt(residual, jacobian, x0)
+    return CameraPipeline(x[:9].reshape(3, 3), knots, _curve(x[9:]))
+
+
+def _levenberg_marquardt(residual: Any, jacobian: Any, x0: NDArray[np.float64], iterations: int = 100,
+                         tol: float = 1e-10) -> NDArray[np.float64]:
+    """Minimise ||residual(x)||² (numpy only: scipy is not bundled with the Blender extension).
+
+    Marquardt's scaling (damping ∝ diag JᵀJ) makes the step independent of the parameters'
+    units (matrix entries vs log curve increments)."""
+    x = np.asarray(x0, np.float64).copy()
+    r = residual(x)
+    cost = float(r @ r)
+    damping = 1e-3
+    for _ in range(iterations):
+        jac = jacobian(x)
+        jtj = jac.T @ jac
+        grad = jac.T @ r
+        diag = np.maximum(np.diag(jtj), 1e-12)
+        while True:
+            try:
+                step = np.linalg.solve(jtj + damping * np.diag(diag), -grad)
+            except np.linalg.LinAlgError:
+                step = None
+            if step is not None:
+                trial = x + step
+                r_new = residual(trial)
+                new_cost = float(r_new @ r_new)
+                if np.isfinite(new_cost) and new_cost < cost:
+                    break
+            damping *= 10.0
+            if damping > 1e12:
+                return x
+        improvement = cost - new_cost
+        x, r, cost = trial, r_new, new_cost
+        damping = max(damping / 10.0, 1e-12)
+        if improvement <= tol * max(cost, 1e-300):
+            break
+    return x

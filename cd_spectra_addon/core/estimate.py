@@ -248,6 +248,10 @@ def estimate_image(
     if camera_note:  # says more than the plain "generic camera profile" warning
         warnings = [w for w in warnings if not w.startswith("generic camera profile")] + [camera_note]
         confidence *= 1.0 if generic else 0.85
+    if cal is not None and cal.camera not in ("", AUTO, camera):
+        warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
+                        f"{camera}: its gains are relative to that profile — pick the same camera")
+        confidence *= 0.85
     if image.processed and cal is None:
         warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
                         "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
