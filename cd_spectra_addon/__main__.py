@@ -45,7 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
     est = sub.add_parser("estimate", help="estimate the lamp's SPD from photos of a CD")
     est.add_argument("photos", nargs="+", type=Path, metavar="PHOTO", help="JPEG, PNG, TIFF or EXR")
     est.add_argument("--preset", default=DEFAULT_PRESET, help=f"capture preset (default {DEFAULT_PRESET})")
-    est.add_argument("--camera", default=DEFAULT_CAMERA, help=f"camera profile (default {DEFAULT_CAMERA})")
+    est.add_argument("--camera", default="auto",
+                     help="camera profile (default: from the photo's EXIF, else the generic profile; "
+                          f"e.g. {DEFAULT_CAMERA})")
     est.add_argument("--calibration", default=None, help="calibration profile name")
     est.add_argument("--json", type=Path, metavar="OUT", help="also write the results as a JSON array")
     est.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")

@@ -74,9 +74,18 @@ def test_defaults_equal_render_photo() -> None:
     from cd_spectra_addon.__main__ import build_parser
     from training.simulation.render_photo import build_parser as render_parser
 
+    from PIL import Image
+
+    from cd_spectra_addon.core.cameras import camera_from_exif
+    from training.simulation import photo
+
     ours = build_parser().parse_args(["estimate", "x.jpg"])
     theirs = render_parser().parse_args([])
-    assert (ours.preset, ours.camera) == (theirs.preset, theirs.camera)
+    assert ours.preset == theirs.preset and ours.camera == "auto"
+    # "auto" reads the camera from EXIF, and render_photo's files name theirs there.
+    exif = Image.Exif()
+    exif.load(photo.exif_for(50.0, 36.0, 1000, theirs.camera))
+    assert camera_from_exif(exif.get(0x010F), exif.get(0x0110)) == theirs.camera
     assert ours.calibration is None
 
 

@@ -110,13 +110,15 @@ def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, ca
     off = CameraProfile("unit", base.sensitivities * np.array([1.06, 0.95, 1.05]))
     ref = known_lamp_spd("incandescent")
     cal_photo = _write(tmp_path, capture, ref, "cal", fmt="exr", noise=0.0, camera=off)
-    saved = calibrate_photo(cal_photo, ref, "unit-test", directory=tmp_path / "cal", reference_name="incandescent")
+    # EXR carries no EXIF camera: name it, for the calibration and the estimates alike.
+    saved = calibrate_photo(cal_photo, ref, "unit-test", camera=DEFAULT_CAMERA, directory=tmp_path / "cal",
+                            reference_name="incandescent")
     assert list_calibrations(tmp_path / "cal") == ["unit-test"]
     loaded = load_calibration(saved)
     target = _warm_led()
     test_photo = _write(tmp_path, capture, target, "t", fmt="exr", noise=0.0, camera=off)
-    plain = estimate_photo(test_photo, model=None)
-    fixed = estimate_photo(test_photo, model=None, calibration=loaded)
+    plain = estimate_photo(test_photo, model=None, camera=DEFAULT_CAMERA)
+    fixed = estimate_photo(test_photo, model=None, calibration=loaded, camera=DEFAULT_CAMERA)
     assert compare_spds(fixed.spd, target)["delta_uv_prime"] < 0.6 * compare_spds(plain.spd, target)["delta_uv_prime"]
 
 

@@ -118,6 +118,8 @@ def prepare(
     if focal_px is None:
         focal_px, source = focal_px_for(image, preset)
     rgb = np.asarray(image.rgb, dtype=np.float64)
+    if calibration is not None and calibration.pipeline is not None:
+        rgb = calibration.pipeline.to_native(rgb)  # undo the camera's matrix and tone curve (JPEG/HEIC)
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:

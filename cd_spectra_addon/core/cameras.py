@@ -23,7 +23,20 @@ CAMERA_FILE = Path(__file__).resolve().parent.parent / "cameras" / "cameras.json
 DEFAULT_CAMERA = "Canon_EOS_5D_Mark_III"
 GENERIC_CAMERA = "generic"  # "my camera is not listed": the model's typical sensitivities
 
-__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "GENERIC_CAMERA", "CameraProfile", "camera_names", "load_camera"]
+__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "GENERIC_CAMERA", "CameraProfile", "camera_names", "load_camera", "camera_from_exif"]
+
+# EXIF Make → the brand word our profile names start with.
+_BRANDS = {"nikon corporation": "nikon", "nikon": "nikon", "canon": "canon", "sony": "sony", "fujifilm": "fujifilm",
+           "fuji photo film co., ltd.": "fujifilm", "panasonic": "panasonic", "hasselblad": "hasselblad",
+           "arashi vision": "arashivision", "arri": "arri"}
+# Other names the same bodies are sold or written under (normalised keys).
+_ALIASES = {"canoneosrebelsl2": "Canon_EOS_200D", "canoneoskissx9": "Canon_EOS_200D",
+            "canoneosrebelt3i": "Canon_EOS_600D", "canoneoskissx5": "Canon_EOS_600D",
+            "canoneosrebelsl1": "Canon_EOS_100D", "canoneoskissx7": "Canon_EOS_100D",
+            "canoneosrebelsl3": "Canon_EOS_200D_II", "canoneos250d": "Canon_EOS_200D_II",
+            "canoneoskissx10": "Canon_EOS_200D_II", "canoneos400ddigital": "Canon_Digital_Rebel_XTi",
+            "canoneoskissdigitalx": "Canon_Digital_Rebel_XTi", "canoneosdigitalrebelxti": "Canon_Digital_Rebel_XTi",
+            "canoneosr5markii": "Canon_EOS_R5m2", "canoneosr6markii": "Canon_EOS_R6m2"}
 
 
 @dataclass(frozen=True)
@@ -73,3 +86,28 @@ def load_camera(name_or_path: str | Path) -> CameraProfile:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
         raise CDSpectraError(f"camera file {path} is not a rawtoaces-format sensitivity file: {exc}") from exc
     return _normalised(path.stem, resample_to_grid(wl, rgb.T).T)
+
+
+def _key(text: str) -> str:
+    return "".join(ch for ch in text.lower() if ch.isalnum())
+
+
+def camera_from_exif(make: str | None, model: str | None) -> str | None:
+    """The shipped profile for an EXIF Make/Model, or None when it is not one of ours.
+
+    Names are normalised the way cameras write them: ``NIKON CORPORATION`` + ``NIKON D850`` →
+    Nikon_D850, ``Canon`` + ``Canon EOS 5D Mark III`` → Canon_EOS_5D_Mark_III, ``SONY`` +
+    ``ILCE-7M3`` → Sony_ILCE-7M3; a few bodies sold under other names are aliased."""
+    if not model:
+        return None
+    make_text = (make or "").strip().lower()
+    brand = _BRANDS.get(make_text, _key(make_text.split(" ")[0]) if make_text else "")
+    model_key = _key(model)
+    for prefix in {brand, _key(make_text)}:
+        if prefix and model_key.startswith(prefix):
+            model_key = model_key[len(prefix):]
+    wanted = brand + model_key
+    profiles = {_key(name): name for name in _shipped()}
+    if wanted in profiles:
+        return profiles[wanted]
+    return _ALIASES.get(wanted)

@@ -23,7 +23,7 @@ from . import colour
 from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
-from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
+from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from .capture import DEFAULT_PRESET, Preset, load_preset
 from .errors import CDSpectraError, PhotoError
 from .images import LinearImage, load_photo
@@ -35,15 +35,18 @@ from .solve import GaussianPrior, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
 MAX_SIDE = 1024
+AUTO = "auto"  # the camera profile from the photo's EXIF
 # The inverse assumes the camera looks straight at the disc's centre. With the disc off the
 # image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
 # 400–700 nm (CIE A) goes 0.004 → 0.03 at 4 mm, 0.07 at 8 mm, 0.14 at 16 mm, 0.25 at 24 mm
 # in the disc plane — all at confidence 1.0 before this check.
 CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
+# An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
+PROCESSED_CONFIDENCE = 0.5
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "estimate_image", "estimate_photo", "camera_for"]
+__all__ = ["MAX_SIDE", "AUTO", "estimate_image", "estimate_photo", "camera_for", "resolve_camera"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -53,6 +56,28 @@ def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, b
             raise CDSpectraError("the generic camera profile comes with the model, which is not available")
         return CameraProfile(GENERIC_CAMERA, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
     return load_camera(name), False
+
+
+def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
+                   ) -> tuple[CameraProfile, bool, str, str | None]:
+    """(sensitivities, generic?, profile name, warning) for ``name``; ``"auto"`` picks the
+    profile from the photo's EXIF Make/Model, else the generic profile (the default camera's
+    without a model) with a warning that says so."""
+    if name != AUTO:
+        cam, generic = camera_for(name, model)
+        return cam, generic, name, None
+    found = camera_from_exif(image.exif.make, image.exif.model)
+    if found:
+        cam, generic = camera_for(found, model)
+        return cam, generic, found, None
+    has_generic = model is not None and "generic_camera" in model.metadata
+    fallback = GENERIC_CAMERA if has_generic else DEFAULT_CAMERA
+    who = " ".join(p for p in (image.exif.make, image.exif.model) if p) or "not named in the photo's EXIF"
+    note = (f"the camera ({who}) is not one of the {len(camera_names())} camera profiles: using the "
+            f"{'generic' if has_generic else DEFAULT_CAMERA.replace('_', ' ')} profile — pick the nearest camera, "
+            "or take a calibration shot, for the best accuracy")
+    cam, generic = camera_for(fallback, model)
+    return cam, generic, fallback, note
 
 
 def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float64]] | None:
@@ -169,7 +194,7 @@ def estimate_image(
     image: LinearImage,
     *,
     preset: str | Preset = DEFAULT_PRESET,
-    camera: str = DEFAULT_CAMERA,
+    camera: str = AUTO,
     calibration: str | Calibration | None = None,
     working_space: str = "Linear Rec.709",
     model: SpectralModel | None | str = "shipped",
@@ -191,7 +216,7 @@ def estimate_image(
     report = progress or (lambda _f, _m: None)
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
-    cam, generic = camera_for(camera, mdl)
+    cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
     cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
     report(0.2, "Finding the disc")
     analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
@@ -219,6 +244,29 @@ def estimate_image(
     t3 = time.perf_counter()
     report(0.9, "Colour")
     confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source)
+    if camera_note:  # says more than the plain "generic camera profile" warning
+        warnings = [w for w in warnings if not w.startswith("generic camera profile")] + [camera_note]
+        confidence *= 1.0 if generic else 0.85
+    if cal is not None and cal.camera not in ("", AUTO, camera):
+        warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
+                        f"{camera}: its gains are relative to that profile — pick the same camera")
+        confidence *= 0.85
+    if image.processed and cal is None:
+        warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
+                        "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
+                        "is only approximate — shoot RAW, or take one calibration shot of a known lamp with the same "
+                        "camera settings (fixed white balance) and use it")
+        confidence *= PROCESSED_CONFIDENCE
+    elif image.processed and cal.pipeline is None:
+        warnings.append(f"this file was processed by the camera ({image.processed_reason}) but calibration "
+                        f"{cal.name!r} holds per-bin gains only, which cannot undo a colour matrix and tone curve: "
+                        "calibrate again from a photo taken the same way as this one (same file type and settings)")
+        confidence *= PROCESSED_CONFIDENCE
+    elif not image.processed and cal is not None and cal.pipeline is not None:
+        warnings.append(f"calibration {cal.name!r} was made from an in-camera JPEG/HEIC and undoes that camera "
+                        "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
+                        "same kind of file")
+        confidence *= PROCESSED_CONFIDENCE
     if unusable and mdl is not None and method == "model":
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
@@ -256,7 +304,7 @@ def estimate_photo(
     path: str | Path,
     *,
     preset: str | Preset = DEFAULT_PRESET,
-    camera: str = DEFAULT_CAMERA,
+    camera: str = AUTO,
     calibration: str | Calibration | None = None,
     working_space: str = "Linear Rec.709",
     model: SpectralModel | None | str = "shipped",

@@ -16,13 +16,14 @@ it bit-exactly; anything else goes to the registered fallback decoders (Blender'
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import struct
 import sys
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -33,8 +34,8 @@ from .errors import PhotoError
 
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
-    "MAX_FILE_BYTES", "MAX_PIXELS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
-    "pillow_header", "pillow_pixels", "exif_from_pillow", "tiff_header", "exr_header", "exr_pixels",
+    "MAX_FILE_BYTES", "MAX_PIXELS", "RAW_EXTENSIONS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
+    "pillow_header", "pillow_pixels", "exif_from_pillow", "heif_header", "heif_pixels", "tiff_header", "exr_header", "exr_pixels",
     "array_pixels",
 ]
 
@@ -51,8 +52,14 @@ DECODE_ERRORS: tuple[type[BaseException], ...] = (
     IndexError, KeyError, TypeError, ZeroDivisionError, OverflowError,
 )
 
-_RAW_EXTENSIONS = {".cr2", ".cr3", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".dng", ".orf", ".rw2",
-                   ".raf", ".pef", ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc", ".mrw", ".rwl"}
+RAW_EXTENSIONS = frozenset({
+    ".cr2", ".cr3", ".crw", ".nef", ".nrw", ".arw", ".srf", ".sr2", ".dng", ".orf", ".rw2", ".raf", ".pef",
+    ".srw", ".x3f", ".3fr", ".iiq", ".erf", ".kdc", ".mrw", ".rwl", ".mos", ".mef", ".dcr"})  # read by LibRaw
+
+
+HEIF_BRANDS = (b"heic", b"heix", b"hevc", b"hevx", b"mif1", b"msf1", b"heim", b"heis")
+# ITU-T H.273 transfer characteristics of HDR HEIFs: the sRGB curve does not undo them.
+_HDR_TRANSFERS = {16: "PQ", 18: "HLG"}
 
 
 class Unsupported(Exception):
@@ -69,6 +76,10 @@ class ExifInfo:
     make: str | None = None
     model: str | None = None
     orientation: int | None = None  # EXIF 1..8
+    software: str | None = None  # what wrote the file (camera firmware, phone OS, editor)
+    colour_space: int | None = None  # EXIF ColorSpace: 1 sRGB, 2 Adobe RGB, 0xFFFF uncalibrated
+    white_balance: int | None = None  # EXIF WhiteBalance: 0 auto, 1 manual — only cameras that balance write it
+    icc_profile: str | None = None  # the embedded ICC profile's description ("" if it has none)
 
 
 @dataclass(frozen=True)
@@ -141,10 +152,10 @@ def sniff_format(path: Path) -> str:
             head = fh.read(64)
     except OSError as exc:
         raise PhotoError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    supported = "supported: JPEG, PNG, TIFF, OpenEXR"
-    if path.suffix.lower() in _RAW_EXTENSIONS:
-        raise PhotoError(f"{path}: camera raw files are not supported; convert it first, e.g. "
-                         f"`dcraw -4 -T` (16-bit linear TIFF), or export a TIFF/PNG/JPEG")
+    supported = "supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR and camera raw (CR2, CR3, NEF, ARW, RAF, ORF, RW2, DNG, ...)"
+    if path.suffix.lower() in RAW_EXTENSIONS or (head[4:8] == b"ftyp" and head[8:12] == b"crx ") \
+            or head.startswith(b"FUJIFILMCCD-RAW"):
+        return "raw"
     if head.startswith(b"\xff\xd8\xff"):
         return "jpeg"
     if head.startswith(b"\x89PNG\r\n\x1a\n"):
@@ -153,6 +164,8 @@ def sniff_format(path: Path) -> str:
         return "tiff"
     if head.startswith(b"v/1\x01"):
         return "exr"
+    if head[4:8] == b"ftyp" and head[8:12] in HEIF_BRANDS:
+        return "heif"
     other = _other_format(head)
     if other:
         raise PhotoError(f"{path}: {other} files are not supported ({supported})")
@@ -166,16 +179,12 @@ def sniff_format(path: Path) -> str:
 def _other_format(head: bytes) -> str | None:
     if head[4:8] == b"ftyp":
         brand = head[8:12]
-        if brand in (b"heic", b"heix", b"hevc", b"mif1", b"msf1", b"heim", b"heis"):
-            return "HEIC/HEIF"
         if brand in (b"avif", b"avis"):
             return "AVIF"
-        if brand == b"crx ":
-            return "Canon CR3 raw"
     known = [(b"GIF8", "GIF"), (b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
              (b"#?RGBE", "Radiance HDR"), (b"\x00\x00\x00\x0cjP  ", "JPEG 2000"),
              (b"\xff\x4f\xff\x51", "JPEG 2000"),
-             (b"FUJIFILMCCD-RAW", "Fujifilm raw"), (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
+             (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
              (b"\x00\x00\x00\x0cJXL ", "JPEG XL")]
     for magic, name in known:
         if head.startswith(magic):
@@ -361,15 +370,23 @@ _UNIT_PER_MM = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0, 5: 1000.0}  # FocalPlaneResolu
 
 
 def exif_from_pillow(im: Any) -> ExifInfo:
-    """The few EXIF fields we use. Damaged EXIF is metadata we can do without: it yields None
-    fields, never a failure to load the photo."""
+    """The few EXIF fields we use (and the ICC profile's name). Damaged EXIF is metadata we can
+    do without: it yields None fields, never a failure to load the photo."""
+    icc = icc_description(im.info.get("icc_profile"))
     try:
-        exif = im.getexif()
-        sub = exif.get_ifd(0x8769)
+        return replace(exif_from_tags(im.getexif()), icc_profile=icc)
     except DECODE_ERRORS:
-        return ExifInfo()
+        return ExifInfo(icc_profile=icc)
+
+
+def exif_from_tags(exif: Any, container_orientation: bool = False) -> ExifInfo:
+    """ExifInfo from a Pillow ``Image.Exif``. ``container_orientation``: the container already
+    rotated the pixels (HEIF's irot/imir, applied by libheif), so EXIF orientation is ignored."""
+    sub = exif.get_ifd(0x8769)
     orientation = exif.get(0x0112)
     orientation = orientation if isinstance(orientation, int) and 1 <= orientation <= 8 else None
+    if container_orientation:
+        orientation = None
     focal_plane = _number(sub.get(0xA20E))
     unit = sub.get(0xA210, 2)  # EXIF default: inches
     per_mm = _UNIT_PER_MM.get(unit) if isinstance(unit, int) else None
@@ -380,7 +397,80 @@ def exif_from_pillow(im: Any) -> ExifInfo:
         make=_text(exif.get(0x010F)),
         model=_text(exif.get(0x0110)),
         orientation=orientation,
+        software=_text(exif.get(0x0131)),
+        colour_space=_small_int(sub.get(0xA001)),
+        white_balance=_small_int(sub.get(0xA403)),
     )
+
+
+def _small_int(value: Any) -> int | None:
+    return value if isinstance(value, int) and 0 <= value <= 0xFFFF else None
+
+
+def icc_description(icc: bytes | None) -> str | None:
+    """The ICC profile's description, "" for a profile without one, None without a profile."""
+    if not icc:
+        return None
+    try:
+        from PIL import ImageCms
+
+        return str(ImageCms.ImageCmsProfile(io.BytesIO(icc)).profile.profile_description or "").strip()
+    except (ImportError, OSError, ValueError, TypeError, AttributeError):
+        return ""
+
+
+# --- HEIC / HEIF ------------------------------------------------------------------------------
+
+
+def heif_header(path: Path) -> tuple[PhotoHeader, Any]:
+    """Header of a HEIC/HEIF file through libheif (pillow-heif): size, bit depth (8, or 10/12
+    handed out as 16-bit codes), EXIF. The pixels are decoded later by :func:`heif_pixels`."""
+    try:
+        import pillow_heif
+    except ImportError as exc:
+        raise PhotoError(f"{path}: reading HEIC/HEIF needs the pillow-heif package, which is not installed "
+                         f"({exc}); install it or export the photo as JPEG") from None
+    heif = pillow_heif.open_heif(path, convert_hdr_to_8bit=False)
+    width, height = heif.size
+    depth = int(heif.info.get("bit_depth") or 8)
+    exif = ExifInfo()
+    raw_exif = heif.info.get("exif")
+    if raw_exif:
+        from PIL import Image
+
+        try:
+            tags = Image.Exif()
+            tags.load(raw_exif)
+            exif = exif_from_tags(tags, container_orientation=True)
+        except DECODE_ERRORS:
+            exif = ExifInfo()
+    exif = replace(exif, icc_profile=icc_description(heif.info.get("icc_profile")))
+    channels = 1 if heif.mode in ("L", "I;16", "I;16L") else 3
+    return PhotoHeader(str(path), "heif", width, height, 8 if depth <= 8 else 16, channels, "srgb", exif), heif
+
+
+def heif_hdr_transfer(heif: Any) -> str | None:
+    """"PQ"/"HLG" when the file declares an HDR transfer curve (read as sRGB: approximate)."""
+    nclx = heif.info.get("nclx_profile") or {}
+    return _HDR_TRANSFERS.get(int(nclx.get("transfer_characteristics", 0) or 0))
+
+
+def heif_pixels(heif: Any, header: PhotoHeader) -> Pixels:
+    data = np.asarray(heif)
+    if data.ndim == 2:
+        data = data[..., None]
+    if data.shape[:2] != (header.height, header.width):
+        raise Unsupported(f"libheif returned {data.shape[1]}x{data.shape[0]} pixels for a "
+                          f"{header.width}x{header.height} image")
+    dtype = np.uint8 if header.bits == 8 else np.uint16
+    if data.dtype != dtype:
+        raise Unsupported(f"unexpected HEIF sample type {data.dtype} for {header.bits}-bit codes")
+    channels = header.channels
+
+    def read(y0: int, y1: int) -> NDArray[Any]:
+        return data[y0:y1, :, :channels]
+
+    return Pixels(header.width, header.height, channels, header.bits, 1, read)
 
 
 # --- TIFF header (for files Pillow cannot open, before a fallback decoder reads them) ---------

@@ -22,7 +22,9 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
   −1…−2 %, 10 px −4…−7 %. CD rainbows at 24 MP are far broader than the 4-px block.
 * **Linearisation.** 8-bit: sRGB. 16-bit PNG: sRGB unless gAMA says 1.0 (and no sRGB/iCCP).
   16-bit TIFF: linear without an ICC profile (dcraw ``-4 -T``), sRGB with one. EXR/float TIFF:
-  as stored (negative values are kept: clipping noise at 0 would bias dark bins).
+  as stored (negative values are kept: clipping noise at 0 would bias dark bins). HEIC/HEIF
+  (libheif through pillow-heif): sRGB curve; 10/12-bit samples come as 16-bit codes. Camera
+  raw: :mod:`.raw_files` (binned linear sensor RGB, its own saturation from the white level).
   ``transfer="srgb"|"linear"`` overrides. Integer codes go through a float32 LUT.
 * **16-bit colour.** Pillow truncates 16-bit RGB to 8 bits; :mod:`.image_formats` recovers the
   low bytes with a second pass of Pillow's own decoder (opposite byte order), bit-exact. For a
@@ -67,9 +69,12 @@ from numpy.typing import NDArray
 from .errors import PhotoError
 from .image_formats import (
     DECODE_ERRORS, MAX_PIXELS, MIN_SIDE, DecodedPixels, ExifInfo, PhotoHeader, Pixels, Unsupported,
-    array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, open_pillow, pillow_header,
+    array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, heif_header, heif_pixels, open_pillow,
+    pillow_header,
     pillow_pixels, sniff_format, tiff_header,
 )
+from .processed import judge_processed
+from .raw_files import read_raw
 from .srgb import srgb_decode
 
 __all__ = [
@@ -100,6 +105,8 @@ class LinearImage:
     exif: ExifInfo
     path: str
     is_grey: bool = False  # no colour information: the spectrum cannot be estimated well
+    processed: bool = False  # white balance / colour matrix / tone curve applied by the camera or an editor
+    processed_reason: str = ""  # why the file is believed processed (for the user's warning)
 
 
 def register_decoder(func: Decoder) -> None:
@@ -125,6 +132,8 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
     name = os.fspath(path)
     file = check_file(name)
     fmt = sniff_format(file)
+    if fmt == "raw":
+        return _load_raw(file, name, int(max_side))
     try:
         with ExitStack() as stack:
             return _load(file, name, fmt, int(max_side), transfer, stack)
@@ -137,7 +146,30 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
                          f"truncated or an unsupported variant ({_reason(exc)})") from exc
 
 
-_FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR"}
+_FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR", "heif": "HEIC/HEIF"}
+
+
+def _load_raw(file: Path, name: str, max_side: int) -> LinearImage:
+    """Camera raw: binned linear sensor RGB (:mod:`.raw_files`), box-averaged to ``max_side``."""
+    photo = read_raw(file)
+    height, width = photo.rgb.shape[:2]
+    box = max(1, _ceil_div(max(width, height), max_side))
+    h, w = height // box, width // box
+    if min(h, w) * box * photo.binning < MIN_SIDE:
+        raise PhotoError(f"{name}: the image is too small ({width}x{height} after binning); the disc needs at least "
+                         f"{MIN_SIDE} pixels on the short side")
+    rgb = _box_sum(photo.rgb[: h * box, : w * box], box) * np.float32(1.0 / (box * box))
+    saturated = _box_any(photo.saturated[: h * box, : w * box], box)
+    if float(np.max(rgb)) < BLACK_LEVEL:
+        raise PhotoError(f"{name}: photo is black — no light reached the camera")
+    orientation = photo.exif.orientation or 1
+    rgb, saturated = _orient(rgb, orientation), _orient(saturated, orientation)
+    reason = ("a linear (demosaiced) DNG: the phone or converter that wrote it may have processed its colours"
+              if photo.linear_dng else "")
+    return LinearImage(
+        rgb=np.ascontiguousarray(rgb, dtype=np.float32), saturated=np.ascontiguousarray(saturated),
+        invalid=np.zeros(saturated.shape, bool), scale=float(box * photo.binning), original_size=photo.original_size,
+        encoding="linear-raw", exif=photo.exif, path=name, processed=photo.linear_dng, processed_reason=reason)
 
 
 def _reason(exc: BaseException) -> str:
@@ -150,8 +182,11 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
     im: Any = None
     sampling: dict[str, tuple[int, int]] = {}
     fallback_reason: Unsupported | None = None
+    heif: Any = None
     if fmt == "exr":
         header, sampling = exr_header(file)
+    elif fmt == "heif":
+        header, heif = heif_header(file)
     else:
         try:
             im = keep(open_pillow(file, fmt))
@@ -171,6 +206,8 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
         try:
             if fmt == "exr":
                 pixels = exr_pixels(file, header, sampling)
+            elif fmt == "heif":
+                pixels = heif_pixels(heif, header)
             else:
                 pixels = pillow_pixels(im, file, fmt, header, draft, keep)
         except Unsupported as exc:
@@ -182,7 +219,9 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
         pixels = _fallback(name, header, fallback_reason)
     if draft * box % pixels.draft:
         raise RuntimeError(f"decoder scaled by {pixels.draft}, which does not divide {draft * box}")
-    return _linearise(pixels, draft * box // pixels.draft, header, name, transfer)
+    image = _linearise(pixels, draft * box // pixels.draft, header, name, transfer)
+    processed, reason = judge_processed(fmt, image.encoding, image.exif, image.rgb, image.saturated)
+    return replace(image, processed=processed, processed_reason=reason)
 
 
 def _closer(stack: ExitStack) -> Callable[[Any], Any]:

@@ -486,7 +486,9 @@ class Outcome:
 
 
 def cli_command(photo_path: Path, extra: Sequence[str] = ()) -> list[str]:
-    return [sys.executable, "-c", CLI_RUNNER, "estimate", str(photo_path), *extra]
+    # The camera that took every photo here is named: a 16-bit PNG/TIFF or an EXR carries no
+    # EXIF Make/Model, and "auto" would rightly fall back to the generic profile.
+    return [sys.executable, "-c", CLI_RUNNER, "estimate", str(photo_path), "--camera", DEFAULT_CAMERA, *extra]
 
 
 def run_cli(case: Case, folder: Path, photo_path: Path, model_dir: Path | None, timeout: float = 120.0) -> Outcome:
@@ -535,7 +537,7 @@ def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outc
     else:
         model = "shipped" if (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file() else None
     try:
-        result = estimate_photo(photo_path, model=model, preset=preset)
+        result = estimate_photo(photo_path, model=model, preset=preset, camera=DEFAULT_CAMERA)
     except CDSpectraError as exc:
         return Outcome(ok=False, error_type=type(exc).__name__, message=str(exc), error_class=type(exc))
     except Exception as exc:  # noqa: BLE001 -- recorded, so the suite and the report can name it

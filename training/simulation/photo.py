@@ -25,7 +25,7 @@ from cd_spectra_addon.core.capture import Scene
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.srgb import srgb_encode
 
-FORMATS = ("exr", "png", "png16", "jpg")
+FORMATS = ("exr", "png", "png16", "jpg", "heic", "heic10", "tiff16")
 AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
@@ -147,7 +147,16 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
             return Path(path).read_bytes()
     if fmt == "png16":
         return _png16(np.rint(srgb_encode(image) * 65535.0).astype(np.uint16), level=1)
+    if fmt == "tiff16":  # what `dcraw -4 -T` writes: 16-bit linear, no ICC profile
+        buffer = io.BytesIO()
+        _tiff16(np.rint(np.clip(image, 0.0, 1.0) * 65535.0).astype(np.uint16), buffer, exif)
+        return buffer.getvalue()
+    if fmt == "heic10":  # a phone's 10-bit HEIC: 10-bit sRGB codes (pillow-heif takes them << 6)
+        codes = np.rint(srgb_encode(np.clip(image, 0.0, 1.0)) * 1023.0).astype(np.uint16) << 6
+        return _heif(codes, "RGB;16", exif, quality)
     rgb8 = _SRGB8_LUT[np.rint(np.clip(image, 0.0, 1.0) * _LUT_SIZE).astype(np.int32)]
+    if fmt == "heic":
+        return _heif(rgb8, "RGB", exif, quality)
     buffer = io.BytesIO()
     if fmt == "png":
         Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"", compress_level=1)
@@ -156,6 +165,32 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
     else:
         raise ValueError(f"format must be one of {FORMATS}")
     return buffer.getvalue()
+
+
+def _heif(codes: NDArray[np.integer], mode: str, exif: bytes | None, quality: int) -> bytes:
+    """HEIC bytes through libheif's x265 encoder (4:2:0 chroma, as phones write)."""
+    import pillow_heif
+
+    height, width = codes.shape[:2]
+    heif = pillow_heif.from_bytes(mode=mode, size=(width, height), data=np.ascontiguousarray(codes).tobytes())
+    buffer = io.BytesIO()
+    heif.save(buffer, quality=int(quality), exif=exif or None)
+    return buffer.getvalue()
+
+
+def _tiff16(rgb16: NDArray[np.uint16], buffer: io.BytesIO, exif: bytes | None) -> None:
+    """Uncompressed 16-bit RGB TIFF with the EXIF fields a raw converter copies (Pillow cannot
+    write 16-bit colour TIFFs)."""
+    from training.simulation.dng import tiff16_bytes
+
+    fields: dict[str, Any] = {}
+    if exif:
+        tags = Image.Exif()
+        tags.load(exif)
+        sub = tags.get_ifd(0x8769)
+        fields = {"make": tags.get(0x010F), "model": tags.get(0x0110), "focal_length_mm": sub.get(0x920A),
+                  "focal_plane_px_per_mm": sub.get(0xA20E) if sub.get(0xA210) == 4 else None}
+    buffer.write(tiff16_bytes(rgb16, **{k: v for k, v in fields.items() if v is not None}))
 
 
 def write_photo(path: Path, image: NDArray[np.float64], fmt: str, exif: bytes | None = None,
