@@ -149,7 +149,7 @@ def _check(equipment: Equipment) -> None:
                         "the colours; use a wider lens")
     fwhm = 2.3548 * 1600.0 * angular_sigma(equipment.lamp_size_mm, equipment.lamp_distance_mm)
     if fwhm > _MAX_FWHM_NM:
-        need = equipment.lamp_size_mm * fwhm / 12.0
+        need = 2.3548 * 1600.0 * equipment.lamp_size_mm / (4.0 * 12.0)  # distance for a 12 nm blur
         raise PlanError(f"a {equipment.lamp_size_mm:g} mm lamp at {equipment.lamp_distance_mm:g} mm blurs the spectrum "
                         f"by ≈ {fwhm:.0f} nm (FWHM): put a card with a 2 mm hole in front of it, or move it to "
                         f"≥ {need / 1000.0:.1f} m")
