@@ -119,6 +119,25 @@ def test_box_hits_segments_through_it_not_beside_or_touching():
     assert turned.hits(np.array([[0.0, -5.0, 0.0]]), np.array([[0.0, 5.0, 0.0]]))[0]
 
 
+def test_boxes_that_share_volume_overlap_and_separate_ones_do_not():
+    a = Box("a", (0.0, 0.0, 0.0), (2.0, 2.0, 2.0))
+    assert a.overlaps(Box("b", (1.5, 0.0, 0.0), (2.0, 2.0, 2.0)))
+    assert not a.overlaps(Box("c", (2.0, 0.0, 0.0), (2.0, 2.0, 2.0)))  # touching faces only
+    # a box turned 45° about z: its corner reaches 1.414·1 from its centre along x
+    turned = Box.facing("d", (2.3, 0.0, 0.0), (2.0, 2.0, 2.0), facing=(0, 0, 1), up=(1, 1, 0))
+    assert turned.overlaps(a)
+    assert not Box.facing("e", (2.5, 0.0, 0.0), (2.0, 2.0, 2.0), facing=(0, 0, 1), up=(1, 1, 0)).overlaps(a)
+
+
+def test_a_lamp_housing_inside_the_camera_body_is_reported():
+    setup = _on_axis_setup(300.0, (20.0, 0.0, 300.0))
+    crowded = setup_from_dict(setup.preset, {"kind": "oblique", "camera_body_mm": [140, 100, 150],
+                                             "aperture_mm": 3.0, "source_size_mm": 3.0,
+                                             "bodies": [{"name": "lamp housing", "center_mm": [20, 0, 340],
+                                                         "size_mm": [80, 80, 80], "passes_source": True}]})
+    assert any("same place" in f for f in analyse(crowded).occlusions)
+
+
 def test_a_preset_without_a_set_up_is_refused_with_the_list():
     with pytest.raises(CDSpectraError, match="no buildable set-up.*phone-near-axis"):
         load_setup("cd-default")

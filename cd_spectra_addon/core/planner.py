@@ -308,7 +308,7 @@ def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int 
         preset = _preset(equipment, name, tuple(camera.tolist()), tuple(lamp.tolist()), sigma)
         setup = _setup(equipment, preset, cand[0], housing=cand[0] == "oblique")
         report = analyse(setup)
-        if not report.covers_visible:
+        if not report.covers_visible or report.occlusions:
             reasons["blocked"] = reasons.get("blocked", 0) + 1
             continue
         if not report.disc_in_frame:
@@ -355,7 +355,7 @@ def _no_plan_message(equipment: Equipment, geometric: int, reasons: dict[str, in
                 f"puts 400–700 nm on the disc's data area; {hint}")
     parts = []
     if reasons.get("blocked"):
-        parts.append("the camera body or the lamp housing is in the way")
+        parts.append("the camera body or the lamp housing is in the way (or they collide)")
     if reasons.get("frame"):
         parts.append("the disc does not fit the frame")
     return (f"every position that puts 400–700 nm on the data area fails: {' or '.join(parts)}; "

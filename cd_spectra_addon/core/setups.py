@@ -102,6 +102,27 @@ class Box:
         margin = _EPS_MM / np.maximum(length, _EPS_MM)
         return (t1 - t0) > margin
 
+    def overlaps(self, other: "Box", tolerance_mm: float = 0.01) -> bool:
+        """Do the two boxes share volume (deeper than ``tolerance_mm``)? Separating-axis test
+        over the 15 candidate axes of two oriented boxes."""
+        a_axes = np.asarray(self.axes, dtype=np.float64)  # rows
+        b_axes = np.asarray(other.axes, dtype=np.float64)
+        a_half = np.asarray(self.size_mm, dtype=np.float64) / 2.0
+        b_half = np.asarray(other.size_mm, dtype=np.float64) / 2.0
+        t = np.asarray(other.center_mm, dtype=np.float64) - np.asarray(self.center_mm, dtype=np.float64)
+        axes = [*a_axes, *b_axes]
+        axes += [np.cross(a, b) for a in a_axes for b in b_axes]
+        for axis in axes:
+            norm = np.linalg.norm(axis)
+            if norm < 1e-9:
+                continue
+            axis = axis / norm
+            ra = float(np.sum(a_half * np.abs(a_axes @ axis)))
+            rb = float(np.sum(b_half * np.abs(b_axes @ axis)))
+            if abs(float(t @ axis)) >= ra + rb - tolerance_mm:
+                return False
+        return True
+
     @staticmethod
     def facing(name: str, center_mm: Any, size_mm: Any, facing: Any, up: Any = (0.0, 0.0, 1.0),
                passes_source: bool = False) -> "Box":
@@ -304,6 +325,10 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
             findings.append(f"the lamp behind the hole does not fill it for {np.mean(unlit[on_data]):.0%} of "
                             "the streak line (move the lamp closer to the card or use a bigger lamp)")
         light_blocked |= unlit
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            if a.overlaps(b):
+                findings.append(f"the {a.name} and the {b.name} would have to be in the same place")
     blocked = light_blocked | view_blocked
     # Lamp and camera must both be above the disc for the point to be lit and seen.
     n = scene.disc_normal
