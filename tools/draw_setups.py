@@ -160,11 +160,8 @@ def draw(setup: SetUp, path: Path) -> dict[str, object]:
 
 
 def _reading_side(report) -> int:
-    """The side of the line (+1 along ê, −1 opposite) that shows all of 400–700 nm (else +1)."""
-    for cov in report.sides:
-        if cov.lambda_range_nm[0] <= 400.0 and cov.lambda_range_nm[1] >= 700.0 and cov.blocked_fraction == 0.0:
-            return cov.side
-    return 1
+    """The half of the line that shows all of 400–700 nm (+1 when the range is split)."""
+    return report.read_side or 1
 
 
 def _towards(target: np.ndarray, _unused: float, cam2: np.ndarray) -> np.ndarray:

@@ -232,14 +232,13 @@ def _quick_metrics(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min:
 
 
 def _read_side(report: SetUpReport, camera_x: float) -> tuple[str, bool]:
-    lo, hi = VISIBLE_NM
-    for cov in report.sides:
-        if cov.lambda_range_nm[0] <= lo and cov.lambda_range_nm[1] >= hi and cov.blocked_fraction == 0.0:
-            direction = report.line_direction[0] * cov.side
-            if abs(camera_x) < 1e-9:
-                return ("side towards the source" if cov.side > 0 else "side away from the source"), True
-            return ("camera side" if direction * camera_x > 0 else "far side from the camera"), True
-    return "both sides", False
+    """Which half of the streak line to read, in words, and whether one half holds 400–700 nm."""
+    if report.read_side == 0:
+        return "both sides", False
+    direction = report.line_direction[0] * report.read_side
+    if abs(camera_x) < 1e-9:
+        return ("side towards the source" if report.read_side > 0 else "side away from the source"), True
+    return ("camera side" if direction * camera_x > 0 else "far side from the camera"), True
 
 
 def _margin(report: SetUpReport) -> float:

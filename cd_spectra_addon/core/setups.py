@@ -214,7 +214,9 @@ def first_order_positions(scene: Scene, wavelengths_nm: Any) -> list[list[float]
     return out
 
 
-def _line_lambda(scene: Scene, s: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _line_lambda(scene: Scene, s: NDArray[np.float64] | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Signed positions along the line (default: hole to rim on both halves) and λ₁ there."""
     disc = scene.preset.disc
     if s is None:
         n = int((disc.rim_radius_mm - disc.hole_radius_mm) * _SAMPLES_PER_MM) + 1
@@ -262,6 +264,7 @@ class SetUpReport:
     occlusions: tuple[str, ...]  # plain-language findings, empty when nothing is in the way
     disc_in_frame: bool
     notes: tuple[str, ...] = field(default=())
+    read_side: int = 0  # +1 / −1: this half of the line alone shows 400–700 nm unblocked; 0: split
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -280,10 +283,20 @@ class SetUpReport:
             "occlusions": list(self.occlusions),
             "disc_in_frame": self.disc_in_frame,
             "notes": list(self.notes),
+            "read_side": self.read_side,
         }
 
 
-def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0)) -> SetUpReport:
+REPORT_NM = (400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0)
+
+
+def _on_data(s: NDArray[np.float64], disc: Any, side: int = 0) -> NDArray[np.bool_]:
+    """Line samples on the data area (on one half if ``side`` is ±1)."""
+    mask = (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
+    return mask & (np.sign(s) == side) if side else mask
+
+
+def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpReport:
     """Coverage, occlusion, glint and resolution of a set-up (nominal pose)."""
     preset = setup.preset
     scene = Scene(preset)
@@ -297,12 +310,14 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
     light_blocked = np.zeros(s.size, dtype=bool)
     view_blocked = np.zeros(s.size, dtype=bool)
     findings: list[str] = []
+    on_data = _on_data(s, disc)
+    none = np.zeros(s.size, dtype=bool)
     for box in boxes:
-        lb = box.hits(np.broadcast_to(lamp, points.shape), points) if not box.passes_source else np.zeros(s.size, bool)
-        vb = box.hits(np.broadcast_to(cam, points.shape), points) if box.name != "camera body" else np.zeros(s.size, bool)
-        on_data = (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
+        lb = none if box.passes_source else box.hits(np.broadcast_to(lamp, points.shape), points)
+        vb = none if box.name == "camera body" else box.hits(np.broadcast_to(cam, points.shape), points)
         if np.any(lb & on_data):
-            findings.append(f"the {box.name} shadows the lamp's light on {np.mean(lb[on_data]):.0%} of the streak line")
+            findings.append(f"the {box.name} shadows the lamp's light on {np.mean(lb[on_data]):.0%} "
+                            "of the streak line")
         if np.any(vb & on_data):
             findings.append(f"the {box.name} hides {np.mean(vb[on_data]):.0%} of the streak line from the camera")
         light_blocked |= lb
@@ -315,12 +330,10 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
             if box.passes_source:
                 continue
             shadow = box.hits(behind, np.broadcast_to(lamp, points.shape))
-            on_data = (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
             if np.any(shadow & on_data):
                 findings.append(f"the {box.name} stands between the lamp and the hole for "
                                 f"{np.mean(shadow[on_data]):.0%} of the streak line (move the hole past its edge)")
             unlit |= shadow
-        on_data = (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
         if np.any(unlit & on_data):
             findings.append(f"the lamp behind the hole does not fill it for {np.mean(unlit[on_data]):.0%} of "
                             "the streak line (move the lamp closer to the card or use a bigger lamp)")
@@ -337,7 +350,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
     sides = []
     visible_parts = []
     for side in (1, -1):
-        data = (np.sign(s) == side) & (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
+        data = _on_data(s, disc, side)
         lam_side = lam[data]
         sides.append(SideCoverage(side, (float(lam_side.min()), float(lam_side.max())),
                                   float(np.mean(blocked[data]))))
@@ -345,6 +358,9 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
         if usable.size:
             visible_parts.append(usable)
     covered, covers = _coverage(visible_parts, lam, s, data_blocked=blocked, disc=disc)
+    lo_nm, hi_nm = VISIBLE_NM
+    read_side = next((c.side for c in sides if c.lambda_range_nm[0] <= lo_nm and c.lambda_range_nm[1] >= hi_nm
+                      and c.blocked_fraction == 0.0), 0)
 
     report = tuple(float(x) for x in report_nm)
     positions = dict(zip(report, first_order_positions(scene, report)))
@@ -354,6 +370,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
     resolution, per_px = {}, {}
     for lam_nm, where in positions.items():
         on = [x for x in where if disc.grating_r_min_mm <= abs(x) <= disc.grating_r_max_mm]
+        on.sort(key=lambda x: x * read_side < 0)  # the half that shows the whole range first
         if not on:
             continue
         x = on[0]
@@ -368,7 +385,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
     rim = _rim_points(scene)
     rc = scene.project(rim * 1e-3)
     width, height = preset.camera.image_size_px
-    in_frame = bool(np.all((rc[:, 0] >= 0) & (rc[:, 0] <= height - 1) & (rc[:, 1] >= 0) & (rc[:, 1] <= width - 1)))
+    in_frame = bool(np.all((rc >= 0) & (rc <= np.array([height - 1, width - 1]))))
     notes = []
     for g in glint:
         if disc.grating_r_min_mm <= abs(g) <= disc.grating_r_max_mm:
@@ -380,7 +397,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = (400.0, 450.0, 500.0, 5
         name=preset.name, line_direction=tuple(float(v) for v in e), positions_mm=positions,
         sides=(sides[0], sides[1]), covered_nm=covered, covers_visible=covers, glint_mm=glint,
         sigma_source=sig_src, sigma_aperture=sig_ap, resolution_nm=resolution, nm_per_px=per_px,
-        occlusions=tuple(findings), disc_in_frame=in_frame, notes=tuple(notes),
+        occlusions=tuple(findings), disc_in_frame=in_frame, notes=tuple(notes), read_side=read_side,
     )
 
 
@@ -391,7 +408,7 @@ def _coverage(parts: list[NDArray[np.float64]], lam: NDArray[np.float64], s: NDA
     grid = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)
     seen = np.zeros(grid.size, dtype=bool)
     for side in (1, -1):
-        data = (np.sign(s) == side) & (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
+        data = _on_data(s, disc, side)
         idx = np.flatnonzero(data)
         for a, b in zip(idx[:-1], idx[1:]):
             if b != a + 1 or data_blocked[a] or data_blocked[b]:
