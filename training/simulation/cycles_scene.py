@@ -112,7 +112,7 @@ def build_capture_scene(capture: Scene, samples: int, seed: int = 0) -> bpy.type
     cyc.use_denoising = False
     cyc.seed = int(seed)
     cyc.use_animated_seed = False
-    cyc.filter_type = "BOX"
+    cyc.pixel_filter_type = "BOX"  # the numpy twin's box filter ("filter_type" is not a Cycles property)
     cyc.filter_width = 1.0
     for attr in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
                  "volume_bounces", "transparent_max_bounces"):
