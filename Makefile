@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo sample-photo model eval eval-camera-files bench bench-render tune-solver reliability extension bake-colour bake-cameras clean
+.PHONY: setup test demo sample-photo model eval eval-camera-files bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -75,6 +75,12 @@ bake-colour: setup
 
 bake-cameras: setup
 	$(PY) -m tools.bake_cameras
+
+# The buildable capture set-ups: presets re-designed by the planner (fails if they moved), then
+# their side-view diagrams in docs/setups/ and the README table (printed).
+diagrams: setup
+	$(PY) tools/design_setups.py --check
+	$(PY) tools/draw_setups.py --out docs/setups
 
 clean:
 	rm -rf out build dist .pytest_cache

@@ -2,6 +2,7 @@
 
     python -m cd_spectra_addon estimate PHOTO... [--preset NAME] [--camera NAME]
         [--calibration NAME] [--json OUT.json] [--blend OUT.blend] [--plot OUT.png]
+    python -m cd_spectra_addon plan --lamp-distance-mm D --lamp-size-mm S --focal-mm F [--phone|--camera] ...
 
 Prints one JSON object per photo (``Estimate.to_json()``), one per line, in the order given.
 ``--json`` writes the same objects as a JSON array; ``--blend`` saves a Blender scene with one
@@ -257,6 +258,11 @@ def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    words = list(sys.argv[1:] if argv is None else argv)
+    if words[:1] == ["plan"]:  # the capture planner (see plan_command.py)
+        from .plan_command import run_plan
+
+        return run_plan(words[1:])
     try:
         return run(argv)
     except UsageError as exc:

@@ -14,9 +14,10 @@ def coaxial_first_order_radius_px(lam_nm: float, pitch_um: float, focal_px: floa
 
 
 def first_order_radius_mm_on_x_axis(
-    lam_nm: float, pitch_um: float, camera_mm: np.ndarray, light_mm: np.ndarray, side: float
+    lam_nm: float, pitch_um: float, camera_mm: np.ndarray, light_mm: np.ndarray, side: float, m: int = -1
 ) -> float:
-    """Radius r (mm) of the point (side·r, 0, 0) where |(ωi + ωo)·r̂| = λ/d, by bisection.
+    """Radius r (mm) of the point (side·r, 0, 0) where (ωi + ωo)·r̂ = mλ/d (order m = ±1; −1 is
+    the inward-pointing order a coaxial lamp makes), by bisection.
 
     For lamp and camera in the xz-plane the tangential component vanishes on the x axis, so
     the grating equation alone fixes the bright point of the first order there."""
@@ -26,7 +27,7 @@ def first_order_radius_mm_on_x_axis(
         p = np.array([side * r, 0.0, 0.0])
         wi = (light_mm - p) / np.linalg.norm(light_mm - p)
         wo = (camera_mm - p) / np.linalg.norm(camera_mm - p)
-        return -np.dot(wi + wo, np.array([side, 0.0, 0.0])) - target
+        return m * np.dot(wi + wo, np.array([side, 0.0, 0.0])) - target
 
     lo, hi = 1.0, 59.0
     if excess(lo) * excess(hi) > 0:

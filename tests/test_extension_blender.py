@@ -457,6 +457,8 @@ if scenario == "reference":
     settings.calibration_lamp = "FILE"
 if scenario == "group_deleted":
     bpy.data.node_groups.remove(settings.node_group)
+if scenario == "setup":
+    settings.preset = "tripod-oblique"
 result = {"drawn": [], "errors": []}
 
 def draw(menu, context):
@@ -478,7 +480,7 @@ os._exit(3)
 '''
 
 
-@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted"])
+@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup"])
 def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenario: str) -> None:
     """Panels drawn into a real ``UILayout`` (not a stub).
 
@@ -495,7 +497,7 @@ def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenar
     result = json.loads(line[len("RESULT "):])
     assert result["errors"] == [], "\n".join(result["errors"])
     assert result["drawn"] == ["CDSPECTRA_PT_main", "CDSPECTRA_PT_result", "CDSPECTRA_PT_compare",
-                               "CDSPECTRA_PT_calibrate"]
+                               "CDSPECTRA_PT_calibrate", "CDSPECTRA_PT_capture"]
     problems = [ln for ln in output.splitlines()
                 if re.search(r"not found|unknown operator|Traceback|Error(?! \(bke\.icons\))", ln)
                 and "bke.icons" not in ln]
@@ -509,6 +511,18 @@ def test_draw_check_catches_a_broken_panel(installed_addon: Installed) -> None:
     proc = run_blender_script(script, str(installed_addon.repo_dir), ADDON_MODULE, "empty", TESTS_DIR)
     assert "property not found" in proc.stdout + proc.stderr
 
+
+
+def test_capture_panel_advice_is_the_set_up_analysis(addon: Installed) -> None:
+    """The Capture Set-up panel shows the preset's build steps and the analysis' coverage, and
+    sends users of an unbuildable preset to the buildable ones and the planner."""
+    panels = addon.sub("cd_spectra_addon.blender.panels")
+    steps, summary = panels.capture_advice("tripod-oblique")
+    assert any("tripod" in s and "322 mm" in s for s in steps)
+    assert summary[0] == "First order on the data area: 400–700 nm (400–700 covered)"
+    assert any("nm FWHM" in line for line in summary)
+    steps, summary = panels.capture_advice("cd-default")
+    assert steps == [] and "phone-near-axis" in summary[0] and "plan" in summary[0]
 
 
 # --- operators that call the core (a fake estimator stands in for the model) ------------------

@@ -58,6 +58,27 @@ def test_print_geometry(capsys):
     assert geo["px_per_mm"] == pytest.approx(58.0 / 36.0 * 512 / 210.0)
 
 
+def test_full_pose_flags_move_camera_and_lamp_and_keep_the_offsets(capsys):
+    code, cap = _run(["--print-geometry", "--preset", "cd-default", "--camera-position-mm", "-120", "0", "250",
+                      "--light-position-mm", "300", "0", "1500", "--camera-offset-mm", "2", "1"], capsys)
+    assert code == 0, cap.err
+    geo = json.loads(cap.out)
+    assert geo["camera_position_mm"] == pytest.approx([-118.0, 1.0, 250.0])
+    assert geo["light_position_mm"] == pytest.approx([300.0, 0.0, 1500.0])
+    assert geo["camera_distance_mm"] == pytest.approx(np.hypot(120.0, 250.0))
+    forward = -np.asarray(geo["camera_rotation"])[:, 2]
+    assert forward == pytest.approx(np.array([120.0, 0.0, -250.0]) / np.hypot(120.0, 250.0))
+    # The offset moves the camera (and its aim) 2 mm towards +x and 1 mm towards +y without
+    # turning it: the disc centre appears left of and below the image centre.
+    col, row = geo["disc_center_px"]
+    assert col < 255.5 - 1.0 and row > 255.5 + 0.5
+
+
+def test_a_camera_below_the_disc_is_refused(capsys):
+    code, cap = _run(["--print-geometry", "--camera-position-mm", "0", "0", "-5"], capsys)
+    assert code == 2 and "above the disc" in cap.err and "Traceback" not in cap.err
+
+
 @pytest.mark.parametrize("content,needle", [
     ("", "fewer than two rows"),
     ("wavelength,a\n400,1\n500,x\n", "not a number"),

@@ -182,7 +182,51 @@ class CDSPECTRA_PT_calibrate(_SidebarPanel, bpy.types.Panel):
         op.profile_name = settings.calibration_name
 
 
-classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_result, CDSPECTRA_PT_compare, CDSPECTRA_PT_calibrate)
+_ADVICE: dict[str, tuple[list[str], list[str]]] = {}  # preset → (steps, summary); presets ship with the add-on
+
+
+def capture_advice(preset: str) -> tuple[list[str], list[str]]:
+    """(steps to build it, what it gives) for a preset, from the core's set-up analysis; once per
+    preset (a few ms). Presets that are not buildable set-ups point to the others and the planner."""
+    if preset not in _ADVICE:
+        from ..core.errors import CDSpectraError
+        from ..core.planner import setup_summary
+        from ..core.setups import analyse, load_setup, setup_names
+
+        try:
+            setup = load_setup(preset)
+        except CDSpectraError:
+            _ADVICE[preset] = ([], [f"Not a set-up you can build as described (the lamp sits on the lens axis). "
+                                    f"Buildable: {', '.join(setup_names())}; or run 'python -m cd_spectra_addon "
+                                    "plan' for your lamp and camera."])
+        else:
+            _ADVICE[preset] = (list(setup.steps), setup_summary(analyse(setup)))
+    return _ADVICE[preset]
+
+
+class CDSPECTRA_PT_capture(_SidebarPanel, bpy.types.Panel):
+    """How to build the chosen preset's capture and what it gives (the planner's advice)."""
+
+    bl_idname = "CDSPECTRA_PT_capture"
+    bl_label = "Capture Set-up"
+    bl_parent_id = "CDSPECTRA_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            return
+        steps, summary = capture_advice(settings.preset)
+        for i, step in enumerate(steps, 1):
+            _wrapped(layout, context, f"{i}. {step}")
+        box = layout.box()
+        for k, line in enumerate(summary):
+            _wrapped(box, context, line.strip(), "INFO" if k == 0 else "NONE")
+
+
+classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_result, CDSPECTRA_PT_compare, CDSPECTRA_PT_calibrate,
+           CDSPECTRA_PT_capture)
 
 
 def register() -> None:

@@ -1,9 +1,13 @@
 """Capture geometry: the disc, the pinhole camera and the lamp, loaded from preset JSON files.
 
-World frame (shared with the Blender scene): metres, disc centre at the origin, disc normal +z,
-camera looking down −z with image rows running towards −y. Presets describe the nominal
-capture; a :class:`Pose` adds what a real user gets wrong (camera or lamp beside the axis,
-a tilted disc).
+World frame (shared with the Blender scene): metres, disc centre at the origin, disc normal +z.
+A preset's camera sits anywhere above the disc (``camera.position_mm``, aimed at
+``camera.look_at_mm``, the disc centre by default, image up towards ``camera.up``); without a
+position it is on the axis at ``distance_mm`` looking down −z with image rows running towards
+−y (the original presets, which give bit-identical scenes). The lamp is anywhere
+(``light.position_mm``, metres away too) and the disc may be tilted (``disc_tilt_deg``).
+Presets describe the nominal capture; a :class:`Pose` adds what a real user gets wrong
+(camera or lamp moved sideways, a tilted disc) on top of it.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ __all__ = [
     "DEFAULT_PRESET",
     "preset_names",
     "load_preset",
+    "preset_from_dict",
 ]
 
 
@@ -53,25 +58,65 @@ class Disc:
     max_order: int = 3
 
 
+_ORIGIN_MM = (0.0, 0.0, 0.0)
+_WORLD_UP = (0.0, 1.0, 0.0)
+
+
 @dataclass(frozen=True)
 class Camera:
-    """Pinhole camera on the disc axis looking at the disc (Blender: sensor fit horizontal)."""
+    """Pinhole camera (Blender: sensor fit horizontal).
+
+    ``position_mm`` None: on the disc axis at ``distance_mm``, looking straight down (the
+    original presets). Otherwise anywhere above the disc, aimed at ``look_at_mm``;
+    ``distance_mm`` is then the distance from the camera to that aim point (derived when a
+    preset file gives only the position). ``up`` is the world direction that appears upwards
+    in the image (projected onto the image plane).
+    """
 
     distance_mm: float = 210.0
     focal_length_mm: float = 58.0
     sensor_width_mm: float = 36.0
     image_size_px: tuple[int, int] = (512, 512)  # width, height
+    position_mm: tuple[float, float, float] | None = None
+    look_at_mm: tuple[float, float, float] = _ORIGIN_MM
+    up: tuple[float, float, float] = _WORLD_UP
 
     @property
     def focal_px(self) -> float:
         return self.focal_length_mm / self.sensor_width_mm * self.image_size_px[0]
+
+    @property
+    def is_on_axis(self) -> bool:
+        """The original geometry: on the disc axis, looking straight down, +y up."""
+        return self.position_mm is None and self.look_at_mm == _ORIGIN_MM and self.up == _WORLD_UP
+
+    @property
+    def nominal_position_mm(self) -> tuple[float, float, float]:
+        """Where the preset puts the camera (before any :class:`Pose` offset)."""
+        if self.position_mm is None:
+            ax, ay, az = self.look_at_mm
+            return (ax, ay, az + self.distance_mm)
+        return self.position_mm
+
+    def rotation(self) -> NDArray[np.float64]:
+        """Camera-to-world rotation, columns (image right, image up, backwards), as Blender's
+        camera matrix: the camera looks down its own −z."""
+        if self.is_on_axis:
+            return np.eye(3)
+        eye = np.asarray(self.nominal_position_mm, dtype=np.float64)
+        forward = np.asarray(self.look_at_mm, dtype=np.float64) - eye
+        forward /= np.linalg.norm(forward)
+        right = np.cross(forward, np.asarray(self.up, dtype=np.float64))
+        right /= np.linalg.norm(right)
+        up = np.cross(right, forward)
+        return np.stack([right, up, -forward], axis=1)
 
 
 @dataclass(frozen=True)
 class Light:
     """Small lamp; ``lobe_sigma`` is its angular size (Gaussian std, radians) in (u, v)."""
 
-    position_mm: tuple[float, float, float] = (0.0, 0.0, 210.0)
+    position_mm: tuple[float, float, float] = (0.0, 0.0, 210.0)  # anywhere, metres away too
     lobe_sigma: float = 0.003
     intensity: float = 1.0  # radiant intensity per nm, arbitrary units
 
@@ -84,6 +129,7 @@ class Preset:
     camera: Camera
     light: Light
     samples: int = 16  # Cycles samples per pixel for basis renders
+    disc_tilt_deg: tuple[float, float] = (0.0, 0.0)  # nominal disc tilt about x then y
 
     def with_image_size(self, width: int, height: int | None = None) -> "Preset":
         """Same capture at another resolution (field of view unchanged)."""
@@ -91,14 +137,24 @@ class Preset:
         return replace(self, camera=replace(self.camera, image_size_px=size))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """The preset as its JSON file holds it. Full-pose fields appear only where they differ
+        from the on-axis defaults, so the original presets (and basis-cube cache keys, which
+        hash this) are unchanged."""
+        camera = {k: list(v) if isinstance(v, tuple) else v for k, v in self.camera.__dict__.items()}
+        for key, default in (("position_mm", None), ("look_at_mm", _ORIGIN_MM), ("up", _WORLD_UP)):
+            if getattr(self.camera, key) == default:
+                del camera[key]
+        data = {
             "name": self.name,
             "description": self.description,
             "disc": self.disc.__dict__.copy(),
-            "camera": {**self.camera.__dict__, "image_size_px": list(self.camera.image_size_px)},
+            "camera": camera,
             "light": {**self.light.__dict__, "position_mm": list(self.light.position_mm)},
             "samples": self.samples,
         }
+        if self.disc_tilt_deg != (0.0, 0.0):
+            data["disc_tilt_deg"] = list(self.disc_tilt_deg)
+        return data
 
 
 @dataclass(frozen=True)
@@ -120,7 +176,24 @@ class Scene:
     @property
     def camera_position(self) -> NDArray[np.float64]:
         dx, dy = self.pose.camera_offset_mm
-        return np.array([dx, dy, self.preset.camera.distance_mm]) * 1e-3
+        cam = self.preset.camera
+        if cam.is_on_axis:
+            return np.array([dx, dy, cam.distance_mm]) * 1e-3
+        x, y, z = cam.nominal_position_mm
+        return np.array([x + dx, y + dy, z]) * 1e-3
+
+    @property
+    def camera_rotation(self) -> NDArray[np.float64]:
+        """Camera-to-world rotation (columns: image right, image up, backwards). A Pose offset
+        moves the camera sideways without turning it."""
+        return self.preset.camera.rotation()
+
+    @property
+    def camera_look_at(self) -> NDArray[np.float64]:
+        """The world point on the optical axis the camera aims at (metres), offset moved too."""
+        dx, dy = self.pose.camera_offset_mm
+        x, y, z = self.preset.camera.look_at_mm
+        return np.array([x + dx, y + dy, z]) * 1e-3
 
     @property
     def light_position(self) -> NDArray[np.float64]:
@@ -135,7 +208,7 @@ class Scene:
     @property
     def disc_rotation(self) -> NDArray[np.float64]:
         """Rotation of the disc (columns: its x, y and normal axes in the world), Rx then Ry."""
-        ax, ay = (math.radians(a) for a in self.pose.tilt_deg)
+        ax, ay = (math.radians(n + p) for n, p in zip(self.preset.disc_tilt_deg, self.pose.tilt_deg))
         rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
         ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])
         return ry @ rx
@@ -158,7 +231,10 @@ class Scene:
         x = cols + 0.5 - width / 2.0
         y = height / 2.0 - (rows + 0.5)
         d = np.stack([x, y, -np.full_like(x, f)], axis=-1)
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        if cam.is_on_axis:
+            return d
+        return d @ cam.rotation().T
 
     def intersect_disc(
         self, directions: NDArray[np.float64]
@@ -184,6 +260,8 @@ class Scene:
         cam = self.preset.camera
         width, height = cam.image_size_px
         rel = points - self.camera_position
+        if not cam.is_on_axis:
+            rel = rel @ cam.rotation()  # into the camera frame
         scale = cam.focal_px / -rel[..., 2]
         cols = rel[..., 0] * scale + width / 2.0 - 0.5
         rows = height / 2.0 - 0.5 - rel[..., 1] * scale
@@ -213,11 +291,30 @@ class Scene:
             "camera_offset_mm": list(self.pose.camera_offset_mm),
             "light_offset_mm": list(self.pose.light_offset_mm),
             "tilt_deg": list(self.pose.tilt_deg),
+            **self._full_pose_dict(),
         }
+
+    def _full_pose_dict(self) -> dict[str, Any]:
+        """Full-pose entries, only for presets that use them (keeps the original presets'
+        geometry, and the basis-cube cache keys hashed from it, unchanged)."""
+        extra: dict[str, Any] = {}
+        cam = self.preset.camera
+        if not cam.is_on_axis:
+            extra["camera_look_at_mm"] = (self.camera_look_at * 1e3).tolist()
+            extra["camera_rotation"] = self.camera_rotation.tolist()
+        if self.preset.disc_tilt_deg != (0.0, 0.0):
+            extra["disc_tilt_deg"] = list(self.preset.disc_tilt_deg)
+        return extra
 
 
 def preset_names() -> list[str]:
     return sorted(p.stem for p in PRESET_DIR.glob("*.json"))
+
+
+def preset_from_dict(data: dict[str, Any]) -> Preset:
+    """A validated preset from a dict shaped like a preset file (ValueError/TypeError/KeyError
+    name what is wrong); the set-up designer and planner build their presets through this."""
+    return _from_dict(data)
 
 
 def _from_dict(data: dict[str, Any]) -> Preset:
@@ -225,6 +322,19 @@ def _from_dict(data: dict[str, Any]) -> Preset:
     cam_data = dict(data.get("camera", {}))
     if "image_size_px" in cam_data:
         cam_data["image_size_px"] = tuple(int(v) for v in cam_data["image_size_px"])
+    for key in ("position_mm", "look_at_mm", "up"):
+        if cam_data.get(key) is not None:
+            cam_data[key] = _triple(f"camera.{key}", cam_data[key])
+    if cam_data.get("position_mm") is not None:
+        aim = cam_data.get("look_at_mm", _ORIGIN_MM)
+        span = math.dist(cam_data["position_mm"], aim)
+        if span < 1e-6:
+            raise ValueError("camera.look_at_mm must differ from camera.position_mm")
+        if "distance_mm" not in cam_data:
+            cam_data["distance_mm"] = span
+        elif not math.isclose(float(cam_data["distance_mm"]), span, rel_tol=1e-6, abs_tol=1e-6):
+            raise ValueError(f"camera.distance_mm {cam_data['distance_mm']!r} disagrees with the distance "
+                             f"{span:.6g} mm from camera.position_mm to camera.look_at_mm; give one of them")
     camera = Camera(**cam_data)
     light_data = dict(data.get("light", {}))
     if "position_mm" in light_data:
@@ -237,9 +347,19 @@ def _from_dict(data: dict[str, Any]) -> Preset:
         camera=camera,
         light=light,
         samples=int(data.get("samples", 16)),
+        disc_tilt_deg=tuple(float(v) for v in data.get("disc_tilt_deg", (0.0, 0.0))),
     )
     _validate(preset)
     return preset
+
+
+def _triple(where: str, value: Any) -> tuple[float, float, float]:
+    """Three finite numbers (a point or direction in mm), else ValueError naming the field."""
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise ValueError(f"{where} needs 3 numbers [x, y, z], not {value!r}")
+    for i, v in enumerate(value):
+        _number(f"{where}[{i}]", v, -math.inf)
+    return (float(value[0]), float(value[1]), float(value[2]))
 
 
 def _number(where: str, value: Any, low: float, low_open: bool = False, integer: bool = False) -> None:
@@ -274,8 +394,34 @@ def _validate(preset: Preset) -> None:
         raise ValueError("camera.image_size_px needs 2 values and light.position_mm 3")
     for i, value in enumerate(light.position_mm):
         _number(f"light.position_mm[{i}]", value, -math.inf)
+    if len(preset.disc_tilt_deg) != 2:
+        raise ValueError("disc_tilt_deg needs 2 angles [about x, about y]")
+    for i, value in enumerate(preset.disc_tilt_deg):
+        _number(f"disc_tilt_deg[{i}]", value, -80.0)
+        if value > 80.0:
+            raise ValueError(f"disc_tilt_deg[{i}] must be between -80 and 80 degrees, not {value!r}")
+    _validate_aim(c)
     _number("light.lobe_sigma", light.lobe_sigma, 0.0, low_open=True)
     _number("light.intensity", light.intensity, 0.0)
+
+
+def _validate_aim(camera: Camera) -> None:
+    """A full-pose camera must be above the disc plane, aim at a point other than itself, and
+    have an ``up`` direction that is not along its line of sight (else the image has no roll)."""
+    if camera.is_on_axis:
+        return
+    eye = np.asarray(camera.nominal_position_mm)
+    if eye[2] <= 0.0:
+        raise ValueError(f"camera.position_mm {list(camera.nominal_position_mm)} must be above the disc (z > 0)")
+    forward = np.asarray(camera.look_at_mm) - eye
+    if np.linalg.norm(forward) < 1e-6:
+        raise ValueError("camera.look_at_mm must differ from camera.position_mm")
+    up = np.asarray(camera.up)
+    if np.linalg.norm(up) < 1e-9 or np.linalg.norm(np.cross(forward / np.linalg.norm(forward),
+                                                              up / np.linalg.norm(up))) < 1e-3:
+        raise ValueError("camera.up must not point along the line of sight (give another 'up' direction)")
+    if forward[2] >= 0.0:
+        raise ValueError("camera.look_at_mm must be below the camera (it looks down at the disc)")
 
 
 def load_preset(name_or_path: str | Path) -> Preset:

@@ -56,7 +56,7 @@ def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
     if rows is None or cols is None:
         rows = (index // width).astype(np.float64)
         cols = (index % width).astype(np.float64)
-    if np.allclose(scene.disc_normal, (0.0, 0.0, 1.0), rtol=0, atol=1e-15):
+    if scene.preset.camera.is_on_axis and np.allclose(scene.disc_normal, (0.0, 0.0, 1.0), rtol=0, atol=1e-15):
         return _untilted(scene, index, rows, cols)
     dirs = scene.pixel_rays(rows, cols)
     points, hit = scene.intersect_disc(dirs)
@@ -94,7 +94,7 @@ def _gain(scene: Scene, cos_i: NDArray[np.float64], cos_o: NDArray[np.float64], 
 
 def _untilted(scene: Scene, index: NDArray[np.int64], rows: NDArray[np.float64],
               cols: NDArray[np.float64]) -> PixelDiffraction:
-    """Disc in the z = 0 plane, camera looking down: rays meet the disc at an affine map of
+    """Disc in the z = 0 plane, camera looking straight down (the on-axis camera model): rays meet the disc at an affine map of
     the pixel position, so everything reduces to 2-D arithmetic (~10× faster; the pose fit
     evaluates this hundreds of times)."""
     cam = scene.preset.camera

@@ -112,7 +112,7 @@ def build_capture_scene(capture: Scene, samples: int, seed: int = 0) -> bpy.type
     cyc.use_denoising = False
     cyc.seed = int(seed)
     cyc.use_animated_seed = False
-    cyc.filter_type = "BOX"
+    cyc.pixel_filter_type = "BOX"  # the numpy twin's box filter ("filter_type" is not a Cycles property)
     cyc.filter_width = 1.0
     for attr in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces",
                  "volume_bounces", "transparent_max_bounces"):
@@ -151,8 +151,14 @@ def build_capture_scene(capture: Scene, samples: int, seed: int = 0) -> bpy.type
     cam_data.clip_start = 1e-3
     cam_data.clip_end = 100.0
     cam = bpy.data.objects.new("capture_camera", cam_data)
-    cam.location = capture.camera_position.tolist()
-    cam.rotation_euler = (0.0, 0.0, 0.0)  # looks down −z, image up = +y
+    if preset.camera.is_on_axis:
+        cam.location = capture.camera_position.tolist()
+        cam.rotation_euler = (0.0, 0.0, 0.0)  # looks down −z, image up = +y
+    else:  # full pose: Blender's camera also looks down its own −z with +y up in the image
+        placement = np.eye(4)
+        placement[:3, :3] = capture.camera_rotation
+        placement[:3, 3] = capture.camera_position
+        cam.matrix_world = mathutils.Matrix(placement.tolist())
     scene.collection.objects.link(cam)
     scene.camera = cam
 

@@ -3,6 +3,7 @@
     python -m training.simulation.render_photo --spd SPD.csv --out DIR [--preset NAME]
         [--camera NAME|FILE.json] [--format exr|png|png16|jpg] [--noise F] [--exposure F]
         [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y] [--seed N]
+        [--camera-position-mm X Y Z] [--light-position-mm X Y Z]
         [--size W [H]] [--upsample K] [--engine cycles|numpy] [--samples N] [--cache-dir DIR]
     python -m training.simulation.render_photo --print-geometry [--preset NAME] [...pose options]
 
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Scene, load_preset
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Scene, load_preset, preset_from_dict
 from cd_spectra_addon.core.spectra_files import read_spectra_csv, safe_stem
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
@@ -44,6 +45,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--light-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
     p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
                    help="disc tilt about the x and y axes")
+    p.add_argument("--camera-position-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="put the camera here (above the disc, aimed at its centre) instead of the preset's place")
+    p.add_argument("--light-position-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="put the lamp here (anywhere, metres away too) instead of the preset's place")
     p.add_argument("--size", type=int, nargs="+", metavar="PX", help="image width [height] (default: preset)")
     p.add_argument("--upsample", type=int, default=1, metavar="K",
                    help="the photo has K× the basis cube's pixels per side (noise per photo pixel)")
@@ -57,6 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def scene_from_args(args: argparse.Namespace) -> Scene:
     preset = load_preset(args.preset)
+    if args.camera_position_mm or args.light_position_mm:
+        data = preset.to_dict()  # through the preset format, so the same validation applies
+        if args.camera_position_mm:
+            camera = {k: v for k, v in data["camera"].items() if k != "distance_mm"}  # derived from the position
+            data["camera"] = {**camera, "position_mm": list(args.camera_position_mm)}
+        if args.light_position_mm:
+            data["light"] = {**data["light"], "position_mm": list(args.light_position_mm)}
+        preset = preset_from_dict(data)
     if args.size:
         if len(args.size) > 2 or min(args.size) < 8 or max(args.size) > 8192:
             raise ValueError("--size takes a width and optional height between 8 and 8192")
@@ -113,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return run(args)
-    except (ValueError, OSError) as exc:
+    except (ValueError, TypeError, KeyError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
 

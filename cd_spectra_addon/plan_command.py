@@ -1,0 +1,120 @@
+"""``python -m cd_spectra_addon plan``: where to put the lamp and the camera.
+
+    python -m cd_spectra_addon plan --lamp-distance-mm D --lamp-size-mm S --focal-mm F
+        [--phone | --camera] [--sensor-width-mm W] [--f-number N] [--min-focus-mm M]
+        [--lamp-housing-mm H] [--json] [--write-preset OUT.json]
+
+Searches lamp and camera positions with the forward model (core.planner) and prints the steps
+(distances, angles), the wavelength range the first order puts on the disc's data area and the
+spectral resolution. A phone's focal length is its 35 mm-equivalent unless --sensor-width-mm
+gives the real sensor. Impossible equipment exits with status 2 and one ``error:`` line that
+says what to change. ``--write-preset`` saves the plan as a capture preset (for rendering and
+for ``estimate --preset``); the file appears whole or not at all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import NoReturn
+
+from .core.errors import CDSpectraError
+from .core.planner import Equipment, plan_capture, setup_summary
+
+__all__ = ["run_plan", "build_plan_parser"]
+
+EXIT_BAD_INPUT = 2
+
+
+class _Usage(Exception):
+    pass
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:
+        raise _Usage(message)
+
+
+def build_plan_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="python -m cd_spectra_addon plan", description=__doc__.split("\n\n")[0])
+    p.add_argument("--lamp-distance-mm", type=float, required=True, help="how far from the disc the lamp can be")
+    p.add_argument("--lamp-size-mm", type=float, required=True,
+                   help="size of the glowing part (filament, LED, or the hole of a card in front of it)")
+    p.add_argument("--focal-mm", type=float, required=True, help="lens focal length (phone: 35 mm-equivalent)")
+    kind = p.add_mutually_exclusive_group()
+    kind.add_argument("--phone", action="store_true", help="a phone (small lens, small body)")
+    kind.add_argument("--camera", action="store_true", help="a camera with a lens (default)")
+    p.add_argument("--sensor-width-mm", type=float, default=36.0, help="sensor width (default 36: full frame)")
+    p.add_argument("--f-number", type=float, help="aperture (default f/1.8 phone, f/8 camera)")
+    p.add_argument("--min-focus-mm", type=float, help="closest focus distance (default 80 phone, 250 camera)")
+    p.add_argument("--lamp-housing-mm", type=float, default=80.0, help="size of the lamp's housing (default 80)")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON instead of text")
+    p.add_argument("--write-preset", type=Path, metavar="OUT.json", help="save the plan as a capture preset")
+    return p
+
+
+def _equipment(args: argparse.Namespace) -> Equipment:
+    return Equipment(lamp_distance_mm=args.lamp_distance_mm, lamp_size_mm=args.lamp_size_mm,
+                     focal_mm=args.focal_mm, sensor_width_mm=args.sensor_width_mm, phone=bool(args.phone),
+                     f_number=args.f_number, lamp_housing_mm=args.lamp_housing_mm, min_focus_mm=args.min_focus_mm)
+
+
+def _write_preset(path: Path, data: dict) -> None:
+    if path.suffix.lower() != ".json":
+        raise CDSpectraError(f"--write-preset needs a .json file name, not {path.name!r}")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise CDSpectraError(f"cannot write {path}: folder {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".plan-", suffix=".json")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(json.dumps(data, indent=2, ensure_ascii=False) + "\n")
+        os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise CDSpectraError(f"cannot write {path}: {exc.strerror or exc}") from exc
+
+
+def _text(plan: object) -> str:
+    from .core.planner import Plan
+
+    assert isinstance(plan, Plan)
+    lines = [f"Set-up: {plan.family}"]
+    lines += [f"  {i}. {step}" for i, step in enumerate(plan.instructions(), 1)]
+    lines.append("Expected:")
+    lines += [f"  {line}" for line in setup_summary(plan.report)]
+    where = ", ".join(f"{lam:g} nm at r = {abs(s[0]):.1f} mm" for lam, s in plan.report.positions_mm.items()
+                      if s and 23.0 <= abs(s[0]) <= 58.5)
+    if where:
+        lines.append(f"  along the streak: {where}")
+    return "\n".join(lines)
+
+
+def run_plan(argv: list[str]) -> int:
+    """Run the plan command; prints the plan (or one ``error:`` line) and returns the exit status."""
+    try:
+        args = build_plan_parser().parse_args(argv)
+        plan = plan_capture(_equipment(args), name=args.write_preset.stem if args.write_preset else "planned")
+        if args.write_preset is not None:
+            preset = plan.setup.preset.to_dict()
+            preset["description"] = "Planned by python -m cd_spectra_addon plan. " + " ".join(plan.instructions())
+            preset["setup"] = {
+                "kind": plan.family, "camera_body_mm": list(plan.setup.camera_body_mm),
+                "lens_offset_mm": list(plan.setup.lens_offset_mm), "aperture_mm": plan.setup.aperture_mm,
+                "source_size_mm": plan.setup.source_size_mm,
+                "bodies": [{"name": b.name, "center_mm": list(b.center_mm), "size_mm": list(b.size_mm),
+                            "facing": list(b.axes[2]), "passes_source": b.passes_source} for b in plan.setup.bodies],
+                "steps": plan.instructions(),
+            }
+            _write_preset(args.write_preset, preset)
+    except (_Usage, CDSpectraError) as exc:
+        print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except SystemExit as exc:  # --help
+        return int(exc.code or 0)
+    print(json.dumps(plan.to_dict(), indent=2, ensure_ascii=False) if args.json else _text(plan))
+    return 0

@@ -1,0 +1,170 @@
+"""Buildable set-ups: the first order where the grating equation puts it, on the data area,
+nothing in the way, and the spectral blur the lamp and lens sizes give."""
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cd_spectra_addon.core.capture import Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.errors import CDSpectraError
+from cd_spectra_addon.core.setups import Box, analyse, load_setup, setup_from_dict, setup_names
+
+SHIPPED = ["phone-near-axis", "tripod-oblique", "phone-distant-lamp"]
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _grating_check(scene: Scene, direction: np.ndarray, s_mm: float) -> tuple[float, float]:
+    """Independent of the product code: d(sin θm − sin θi) and the tangential part v at the point
+    s·ê, with sin θi = −ωi·ê and sin θm = ωo·ê (angles from the normal, positive along ê)."""
+    p = s_mm * direction
+    lamp = np.asarray(scene.preset.light.position_mm)
+    cam = np.asarray(scene.preset.camera.nominal_position_mm)
+    wi = (lamp - p) / np.linalg.norm(lamp - p)
+    wo = (cam - p) / np.linalg.norm(cam - p)
+    d_nm = scene.preset.disc.pitch_um * 1e3
+    t = np.cross((0.0, 0.0, 1.0), direction)
+    return d_nm * (wo @ direction - (-(wi @ direction))), float((wi + wo) @ t)
+
+
+def test_the_shipped_set_ups_are_listed():
+    assert set(SHIPPED) <= set(setup_names())
+    assert "cd-default" not in setup_names()
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_set_up_puts_400_700_on_the_data_area_by_the_grating_equation(name):
+    setup = load_setup(name)
+    report = analyse(setup, report_nm=tuple(np.arange(400.0, 701.0, 25.0)))
+    assert report.covers_visible and report.covered_nm == (400.0, 700.0)
+    assert report.occlusions == () and report.disc_in_frame
+    scene = Scene(setup.preset)
+    e = np.asarray(report.line_direction)
+    assert abs(e[2]) < 1e-12 and math.isclose(np.linalg.norm(e), 1.0)
+    for lam, where in report.positions_mm.items():
+        on_data = [s for s in where if 23.0 <= abs(s) <= 58.5]
+        assert on_data, (name, lam, where)
+        for s in where:
+            value, v = _grating_check(scene, e, s)
+            assert abs(abs(value) - lam) < 0.05, (name, lam, s, value)  # m = ±1
+            assert abs(v) < 1e-12
+    # One side alone shows the whole range (the planner prefers that), in order along the line.
+    side = [c for c in report.sides if c.lambda_range_nm[0] <= 400 and c.lambda_range_nm[1] >= 700]
+    assert side and side[0].blocked_fraction == 0.0
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_resolution_is_the_lamp_and_lens_angular_size_times_the_pitch(name):
+    setup = load_setup(name)
+    report = analyse(setup, report_nm=(550.0,))
+    lamp = np.asarray(setup.preset.light.position_mm)
+    cam = np.asarray(setup.preset.camera.nominal_position_mm)
+    sig_i = setup.source_size_mm / (4 * np.linalg.norm(lamp))
+    sig_o = setup.aperture_mm / (4 * np.linalg.norm(cam))
+    e = np.asarray(report.line_direction)
+    # on the half of the line that shows the whole range (the one a reader uses)
+    assert report.read_side in (1, -1)
+    s = [x for x in report.positions_mm[550.0] if 23 <= abs(x) <= 58.5 and x * report.read_side > 0][0]
+    p = s * e
+    wi, wo = (lamp - p) / np.linalg.norm(lamp - p), (cam - p) / np.linalg.norm(cam - p)
+    # In the plane of diffraction, cos θ = √(1 − sin² θ) with sin θ = ω·ê.
+    fwhm = 2.3548 * 1600 * math.hypot(math.sqrt(1 - (wi @ e) ** 2) * sig_i, math.sqrt(1 - (wo @ e) ** 2) * sig_o)
+    assert report.resolution_nm[550.0] == pytest.approx(fwhm, rel=1e-9)
+    assert 3.0 < fwhm < 25.0
+    # The preset renders with the same combined angular size.
+    assert setup.preset.light.lobe_sigma == pytest.approx(math.hypot(sig_i, sig_o), rel=1e-3)
+
+
+def _on_axis_setup(camera_mm: float, lamp_mm: tuple[float, float, float], body=(140.0, 100.0, 150.0)):
+    data = load_preset("cd-default").to_dict()
+    data["camera"]["distance_mm"] = camera_mm
+    data["camera"]["focal_length_mm"] = 24.0
+    data["light"]["position_mm"] = list(lamp_mm)
+    return setup_from_dict(preset_from_dict(data), {"kind": "oblique", "camera_body_mm": list(body),
+                                                    "aperture_mm": 3.0, "source_size_mm": 3.0})
+
+
+def test_a_lamp_behind_the_camera_is_shadowed_by_its_body():
+    """cd-far-light as built: camera 100 mm over the disc, lamp 2 m up the axis behind it."""
+    report = analyse(_on_axis_setup(100.0, (0.0, 0.0, 2000.0)))
+    assert any("camera body shadows" in f for f in report.occlusions)
+    assert not report.covers_visible
+    # A phone-sized body (75 × 160 mm) at 100 mm shadows it too; only a tiny body would not.
+    assert not analyse(_on_axis_setup(100.0, (0.0, 0.0, 2000.0), (75.0, 160.0, 9.0))).covers_visible
+    assert analyse(_on_axis_setup(100.0, (0.0, 0.0, 2000.0), (2.0, 2.0, 2.0))).covers_visible
+
+
+def test_a_lamp_60_mm_beside_a_58_mm_lens_cannot_put_the_spectrum_on_the_data_area():
+    """The issue's finding: the visible first order on the lamp's line falls inside r < 25 mm."""
+    data = load_preset("cd-default").to_dict()
+    data["light"]["position_mm"] = [60.0, 0.0, 210.0]
+    setup = setup_from_dict(preset_from_dict(data), {"kind": "near-axis", "camera_body_mm": [2, 2, 2],
+                                                     "aperture_mm": 3.0, "source_size_mm": 3.0})
+    report = analyse(setup)
+    assert not report.covers_visible
+    # 400-700 nm on the data area of one side only in part; the blue end is inside the hub.
+    assert all(c.lambda_range_nm[0] > 400 or c.lambda_range_nm[1] < 700 for c in report.sides)
+
+
+def test_box_hits_segments_through_it_not_beside_or_touching():
+    box = Box("b", (0.0, 0.0, 0.0), (2.0, 2.0, 2.0))
+    a = np.array([[-5.0, 0.0, 0.0], [-5.0, 3.0, 0.0], [-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    b = np.array([[5.0, 0.0, 0.0], [5.0, 3.0, 0.0], [-2.0, 0.0, 0.0], [5.0, 0.0, 0.0]])
+    assert box.hits(a, b).tolist() == [True, False, False, False]
+    turned = Box.facing("t", (0, 0, 0), (10.0, 0.5, 10.0), facing=(0, 1, 0), up=(0, 0, 1))
+    # a thin card in the xz-plane... faced along +y it is thin along y: a ray along y crosses it
+    assert turned.hits(np.array([[0.0, -5.0, 0.0]]), np.array([[0.0, 5.0, 0.0]]))[0]
+
+
+def test_boxes_that_share_volume_overlap_and_separate_ones_do_not():
+    a = Box("a", (0.0, 0.0, 0.0), (2.0, 2.0, 2.0))
+    assert a.overlaps(Box("b", (1.5, 0.0, 0.0), (2.0, 2.0, 2.0)))
+    assert not a.overlaps(Box("c", (2.0, 0.0, 0.0), (2.0, 2.0, 2.0)))  # touching faces only
+    # a box turned 45° about z: its corner reaches 1.414·1 from its centre along x
+    turned = Box.facing("d", (2.3, 0.0, 0.0), (2.0, 2.0, 2.0), facing=(0, 0, 1), up=(1, 1, 0))
+    assert turned.overlaps(a)
+    assert not Box.facing("e", (2.5, 0.0, 0.0), (2.0, 2.0, 2.0), facing=(0, 0, 1), up=(1, 1, 0)).overlaps(a)
+
+
+def test_a_lamp_housing_inside_the_camera_body_is_reported():
+    setup = _on_axis_setup(300.0, (20.0, 0.0, 300.0))
+    crowded = setup_from_dict(setup.preset, {"kind": "oblique", "camera_body_mm": [140, 100, 150],
+                                             "aperture_mm": 3.0, "source_size_mm": 3.0,
+                                             "bodies": [{"name": "lamp housing", "center_mm": [20, 0, 340],
+                                                         "size_mm": [80, 80, 80], "passes_source": True}]})
+    assert any("same place" in f for f in analyse(crowded).occlusions)
+
+
+def test_a_preset_without_a_set_up_is_refused_with_the_list():
+    with pytest.raises(CDSpectraError, match="no buildable set-up.*phone-near-axis"):
+        load_setup("cd-default")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.sampled_from(["kind", "camera_body_mm", "aperture_mm", "source_size_mm", "bodies",
+                                        "lens_offset_mm", "emitter"]),
+                       st.one_of(st.none(), st.floats(allow_nan=True), st.text(max_size=4),
+                                 st.lists(st.floats(allow_nan=True), max_size=4))))
+def test_junk_set_up_sections_are_refused_with_a_clear_message(tmp_path_factory, section):
+    import json
+
+    data = {**load_preset("cd-default").to_dict(), "setup": section}
+    path = tmp_path_factory.mktemp("s") / "s.json"
+    path.write_text(json.dumps(data))
+    try:
+        setup = load_setup(path)
+    except CDSpectraError as exc:
+        assert "invalid setup section" in str(exc) and "setup" in str(exc)
+        return
+    assert setup.aperture_mm > 0 and setup.source_size_mm > 0 and setup.kind in ("near-axis", "oblique")
+
+
+def test_shipped_presets_are_what_the_planner_designs_now():
+    done = subprocess.run([sys.executable, str(REPO / "tools" / "design_setups.py"), "--check"],
+                          capture_output=True, text=True, cwd=REPO)
+    assert done.returncode == 0, done.stderr

@@ -1,0 +1,94 @@
+"""Today's estimator on photos of the buildable set-ups (numpy twin, simulator only).
+
+    python -m training.evaluation.setup_samples [--lamps N] [--out bench/setup_samples.md]
+
+For each set-up preset (and cd-default as the reference row) the numpy twin renders the
+basis cube once, then N LSPDD lamps become 8-bit JPEGs with 1 % noise (the issue's test
+conditions) and go through ``estimate_photo(..., preset=<set-up>)`` with no pose hints.
+Prints, per set-up: photos refused (and the first message), median / mean MAE 400–700 of the
+rest, and mean confidence. Numbers are from the simulator, not from real photographs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.errors import CDSpectraError
+from cd_spectra_addon.core.estimate import estimate_photo
+from cd_spectra_addon.core.setups import setup_names
+
+from training.evaluation.lamps import lspdd_lamps
+from training.simulation import photo
+from training.simulation.basis import CACHE_DIR, basis_cube
+
+NOISE = 0.01
+
+
+def evaluate(preset_name: str, lamps: list, folder: Path) -> dict:
+    scene = Scene(load_preset(preset_name))
+    cube, _ = basis_cube(scene, "numpy", None, CACHE_DIR)
+    camera = load_camera(DEFAULT_CAMERA)
+    cam = scene.preset.camera
+    exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
+    meter = photo.track_mask(scene)
+    rng = np.random.default_rng(0)
+    maes, confidences, refusals, warned, warnings = [], [], Counter(), 0, Counter()
+    for i, lamp in enumerate(lamps):
+        image, _ = photo.expose(photo.linear_photo(cube, lamp.spd, camera), 1.0, meter)
+        image = np.minimum(photo.add_noise(image, NOISE, rng), 1.0)
+        path = folder / f"{preset_name}-{i}.jpg"
+        photo.write_photo(path, image, "jpg", exif)
+        try:
+            result = estimate_photo(path, preset=preset_name)
+        except CDSpectraError as exc:
+            refusals[" ".join(str(exc).split())[:160].replace("|", "/")] += 1
+            continue
+        maes.append(compare_spds(result.spd, lamp.spd)["mae_400_700"])
+        confidences.append(result.confidence)
+        warned += bool(result.warnings)
+        if result.warnings:
+            warnings[result.warnings[0][:120].replace("|", "/")] += 1
+    return {"preset": preset_name, "n": len(lamps), "refused": sum(refusals.values()), "reasons": refusals,
+            "mae": maes, "confidence": confidences, "warned": warned,
+            "warnings": warnings}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--lamps", type=int, default=12, help="how many LSPDD lamps (every k-th of the file)")
+    parser.add_argument("--out", type=Path, help="also write the table here (markdown)")
+    args = parser.parse_args(argv)
+    every = lspdd_lamps()
+    lamps = every[:: max(1, len(every) // args.lamps)][: args.lamps]
+    lines = [f"# Today's estimator on the buildable set-ups ({len(lamps)} LSPDD lamps, 8-bit JPEG, 1 % noise, "
+             "numpy twin, no pose hints; simulator only)", "",
+             "`python -m training.evaluation.setup_samples`", "",
+             "| preset | refused | MAE 400–700 median (mean) | confidence mean | warned | commonest refusal / warning |",
+             "|---|---|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in [DEFAULT_PRESET, *setup_names()]:
+            row = evaluate(name, lamps, Path(tmp))
+            mae = (f"{np.median(row['mae']):.3f} ({np.mean(row['mae']):.3f})" if row["mae"] else "—")
+            conf = f"{np.mean(row['confidence']):.2f}" if row["confidence"] else "—"
+            common = (row["reasons"] or row["warnings"]).most_common(1)
+            reason = common[0][0] if common else ""
+            lines.append(f"| {name} | {row['refused']}/{row['n']} | {mae} | {conf} | {row['warned']} | {reason} |")
+            print(lines[-1], flush=True)
+    text = "\n".join(lines) + "\n"
+    if args.out:
+        args.out.write_text(text, encoding="utf-8")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
