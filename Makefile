@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo sample-photo model eval bench bench-render tune-solver reliability extension clean
+.PHONY: setup test demo sample-photo model eval eval-poses bench bench-render tune-solver reliability extension clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -40,6 +40,10 @@ model: setup
 eval: setup
 	$(PY) -m training.evaluation.evaluate --out bench/eval.md
 	$(PY) -m training.evaluation.model_card
+
+# Capture pose errors (lamp beside the lens, camera off centre, tilt, ambient, lamp size): numpy twin, minutes.
+eval-poses: setup
+	$(PY) -m training.evaluation.pose_errors --out bench/pose_errors.md
 
 bench: setup
 	$(PY) -m training.evaluation.bench --out bench/bench.md
