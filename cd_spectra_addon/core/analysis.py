@@ -121,7 +121,7 @@ def prepare(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:
-        fit = fit_pose(rgb, preset, focal_px)
+        fit = fit_pose(rgb, preset, focal_px, sensitivities=camera.sensitivities)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
     measured = extract_readout(rgb, saturated, scene, pixels)
