@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .ambient import dark_offset, rough_offset
 from .calibration import Calibration
 from .cameras import CameraProfile
 from .capture import Preset, Scene
@@ -57,6 +58,7 @@ class Analysis:
     focal_px: float
     focal_source: str  # "exif", "exif-35mm", "preset" or "given"
     calibration: Calibration | None = None
+    ambient: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))  # offset removed per channel
     timing_ms: dict[str, float] = field(default_factory=dict)
 
 
@@ -121,10 +123,11 @@ def prepare(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:
-        fit = fit_pose(rgb, preset, focal_px, sensitivities=camera.sensitivities)
+        fit = fit_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
-    measured = extract_readout(rgb, saturated, scene, pixels)
+    ambient = dark_offset(rgb, scene, saturated)
+    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene, pixels)
     t2 = time.perf_counter()
     readout = _with_gains(measured, calibration)
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
@@ -140,7 +143,7 @@ def prepare(
     t3 = time.perf_counter()
     return Analysis(fit=fit, scene=scene, readout=readout, uncalibrated=measured, response=response, camera=camera,
                     matrix=feature_matrix(response, camera), generic_camera=generic_camera, focal_px=float(focal_px),
-                    focal_source=source, calibration=calibration,
+                    focal_source=source, calibration=calibration, ambient=ambient,
                     timing_ms={"geometry": (t1 - t0) * 1e3, "profile": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 

@@ -42,6 +42,9 @@ GENERIC = "generic"
 # in the disc plane — all at confidence 1.0 before this check.
 CENTRE_OFFSET_OK_MM = 5.0
 CENTRE_OFFSET_SPAN_MM = 10.0  # confidence falls linearly to its floor over this much more
+# An offset this large (share of full scale) is worth telling: it costs 8-bit levels and may
+# not be uniform.
+AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
 __all__ = ["MAX_SIDE", "GENERIC", "estimate_image", "estimate_photo", "camera_for"]
@@ -125,6 +128,13 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
                         "check the raw conversion or the EXR export")
         score *= max(0.2, 1.0 - 2.0 * bad)
+    ambient = float(np.max(analysis.ambient))
+    stats["ambient_offset"] = ambient
+    if ambient >= AMBIENT_WARN:
+        warnings.append(f"room light (or the camera's black level) adds {100 * ambient:.1f}% of full scale to the "
+                        "whole photo: it was measured on the dark part of the disc and subtracted — a darker room "
+                        "is more accurate")
+        score *= max(0.5, 1.0 - 5.0 * ambient)
     # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
     peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
     if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:

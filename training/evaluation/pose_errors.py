@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import tempfile
 import time
 from dataclasses import dataclass, replace
@@ -177,7 +178,7 @@ def report(results: list[dict], n_lamps: int, size: int, seconds: float) -> str:
         warned: dict[str, int] = {}
         for r in res["rows"]:
             for w in r["warnings"]:
-                key = w.split(":")[0].split("—")[0].strip()
+                key = re.sub(r"\d+(\.\d+)?", "N", w.split(":")[0].split("—")[0].strip())
                 warned[key] = warned.get(key, 0) + 1
         if warned and res["case"].name != "nominal":
             top = sorted(warned.items(), key=lambda kv: -kv[1])[:2]
