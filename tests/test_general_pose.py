@@ -91,3 +91,23 @@ def test_rough_offset_never_exceeds_the_dark_level(image, level):
     found = ambient.rough_offset(image + level)
     assert found.shape == (3,) and np.all(np.isfinite(found)) and np.all(found >= 0)
     assert np.all(found <= np.percentile((image + level).reshape(-1, 3), 10, axis=0) + 1e-12)
+
+
+def test_lamp_reach_and_advice_follow_the_geometry():
+    """With the camera 210 mm up, a lamp up to ~10–15 mm beside the lens puts 400–700 nm on the
+    tracks (issue 10); at 60 mm the glint alone tells the user how far off the lamp is."""
+    from cd_spectra_addon.core import capture_advice
+
+    preset = load_preset("cd-default")
+    reach = capture_advice.lamp_reach_mm(preset)
+    assert 10.0 <= reach <= 20.0
+    scene, image = _capture(Pose(light_offset_mm=(60.0, 0.0)), size=256)
+    image = image / np.max(image) * 0.8  # exposed for the glint: the rainbow is dim
+    glint = capture_advice.glint_px(image, np.zeros(image.shape[:2], bool))
+    offset = capture_advice.lamp_offset_from_glint(glint, (256, 256), scene.preset.camera.focal_px, scene.preset)
+    assert abs(offset - 60.0) < 3.0
+    text = capture_advice.advice_for_photo(scene.preset, scene, False, image, np.zeros(image.shape[:2], bool),
+                                           scene.preset.camera.focal_px)
+    assert "move the lamp closer" in text and "60 mm" in text
+    nominal_scene, nominal = _capture(Pose())
+    assert capture_advice.glint_px(nominal, np.zeros(nominal.shape[:2], bool)) is None  # a rainbow is no glint

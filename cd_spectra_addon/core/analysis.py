@@ -22,6 +22,7 @@ from .ambient import dark_offset, rough_offset
 from .calibration import Calibration
 from .cameras import CameraProfile
 from .capture import Preset, Scene
+from .capture_advice import advice_for_photo
 from .diffraction import PixelDiffraction
 from .errors import NoDiscError, PhotoError
 from .forward_matrix import bin_response, feature_matrix
@@ -137,8 +138,9 @@ def prepare(
             hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        raise NoDiscError(f"no CD rainbow found in {name}{hint}: photograph the disc "
-                          "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
+        advice = advice_for_photo(preset, scene, fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST, rgb, saturated,
+                                  focal_px)
+        raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
     response = bin_response(scene, readout)
     t3 = time.perf_counter()
     return Analysis(fit=fit, scene=scene, readout=readout, uncalibrated=measured, response=response, camera=camera,

@@ -23,6 +23,7 @@ from . import colour
 from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
+from .capture_advice import lamp_advice, lamp_offset_mm, lamp_reach_mm
 from .cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from .capture import Preset, load_preset
 from .errors import CDSpectraError, PhotoError
@@ -119,9 +120,13 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
         score *= max(0.2, 1.0 - 2.0 * sat_core)
     if coverage < 0.95:
-        warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — the disc may be cut off "
-                        "by the frame, or the lamp and camera are too far off the disc's axis")
-        score *= max(0.1, coverage)
+        offset = lamp_offset_mm(analysis.scene)
+        where = lamp_advice(analysis.scene.preset, offset) if offset > lamp_reach_mm(analysis.scene.preset) else \
+            "the disc may be cut off by the frame, or the lamp and camera are too far off the disc's axis"
+        warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — {where}")
+        # Squared: the missing part of 400–700 nm comes from the prior alone (lamp 45 mm beside
+        # the lens: 38 % coverage, MAE 0.37 at confidence 0.42 with a linear penalty).
+        score *= max(0.1, coverage * coverage)
     if image is not None and np.any(image.invalid):
         bad = float(np.mean(_bin_share(readout, image.invalid)[core]))
         stats["invalid_share"] = bad

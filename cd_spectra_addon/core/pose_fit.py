@@ -341,6 +341,19 @@ def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: flo
     return (float(y[0]), float(y[1])), (float(y[2]), float(y[3])), value, evals
 
 
+def _preset_ring_centre(preset: Preset, image_size: tuple[int, int], focal_px: float, dist: float
+                        ) -> tuple[float, float]:
+    """Image position (row, col) of the mirror point the preset's lamp gives, camera looking
+    straight down at the image centre: m = D·l / (D + D_L) from the camera's foot."""
+    width, height = image_size
+    lx, ly, lz = preset.light.position_mm
+    cam_d = preset.camera.distance_mm
+    if lz <= 0:
+        return ((height - 1) / 2.0, (width - 1) / 2.0)
+    k = cam_d / (cam_d + lz) * focal_px / dist
+    return ((height / 2.0 - 0.5) - ly * k, (width / 2.0 - 0.5) + lx * k)
+
+
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              max_evals: int = 150, distance_mm: float | None = None,
              sensitivities: NDArray[np.float64] | None = None) -> PoseFit:
@@ -369,16 +382,23 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     angle, strength = _axis_of_arcs(lum, sym, 20 * px_per_mm, 58 * px_per_mm)
     axis = np.array([-math.sin(angle), math.cos(angle)])  # (row, col) direction
     candidates = [0.0] if strength < 0.05 else [0.0, 1, -1, 2, -2, 4, -4, 8, -8, 16, -16]
-    best_t, best_cost = 0.0, math.inf
+    # Where are the rings centred? Where the photo is symmetric, or where the preset's lamp puts
+    # the mirror point (a lamp beside the lens moves the rings off the disc centre).
+    rings = [sym]
+    preset_ring = _preset_ring_centre(preset, (sw, sh), f_small, dist)
+    if math.dist(preset_ring, sym) > 1.0:
+        rings.append(preset_ring)
+    best_t, best_ring, best_cost = 0.0, sym, math.inf
     evals = 0
-    for t in candidates:
-        centre = (sym[0] + t * px_per_mm * axis[0], sym[1] + t * px_per_mm * axis[1])
-        c = cost_at(centre, sym, 0.0)
-        evals += 1
-        if c < best_cost:
-            best_t, best_cost = t, c
+    for ring0 in rings:
+        for t in candidates:
+            centre = (sym[0] + t * px_per_mm * axis[0], sym[1] + t * px_per_mm * axis[1])
+            c = cost_at(centre, ring0, 0.0)
+            evals += 1
+            if c < best_cost:
+                best_t, best_ring, best_cost = t, ring0, c
     start = np.array([sym[0] + best_t * px_per_mm * axis[0], sym[1] + best_t * px_per_mm * axis[1],
-                      sym[0], sym[1], 0.0])
+                      best_ring[0], best_ring[1], 0.0])
 
     def cost(x: NDArray[np.float64], log_sigma: float = 0.0) -> float:
         return cost_at((x[0], x[1]), (x[2], x[3]), log_sigma)

@@ -178,7 +178,7 @@ def report(results: list[dict], n_lamps: int, size: int, seconds: float) -> str:
         warned: dict[str, int] = {}
         for r in res["rows"]:
             for w in r["warnings"]:
-                key = re.sub(r"\d+(\.\d+)?", "N", w.split(":")[0].split("—")[0].strip())
+                key = re.sub(r"\d+(\.\d+)?", "N", w)
                 warned[key] = warned.get(key, 0) + 1
         if warned and res["case"].name != "nominal":
             top = sorted(warned.items(), key=lambda kv: -kv[1])[:2]
