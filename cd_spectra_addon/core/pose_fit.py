@@ -9,6 +9,9 @@ Three steps, cheapest first:
    makes the photo most self-consistent: pixels that share λ₁ must share colour once divided
    by the lobe's visibility. A wrong centre mixes rings of different colour in one λ₁ bin; a
    wrong lamp position predicts light where the photo is dark. No spectrum is needed for this.
+   The zero-order glint (the lamp's mirror image, clipped) is left out of that comparison, and
+   with the camera's sensitivities each λ₁ bin must have the camera's colour at λ₁, which
+   pins the wavelength axis along a single streak (bench/pose_errors.md).
 """
 
 from __future__ import annotations
