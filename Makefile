@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-$(shell cat requirements.txt | md5sum | cut -c1-8)
 
-.PHONY: setup test demo sample-photo model eval eval-camera-files bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
+.PHONY: setup test demo sample-photo model eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -42,7 +42,7 @@ model: setup
 	$(PY) -m training.simulation.render_cubes --set full --engine cycles
 	$(PY) -m training.learning.train --set full
 
-eval: setup eval-camera-files
+eval: setup eval-camera-files eval-poses
 	$(PY) -m training.evaluation.evaluate --out bench/eval.md
 	$(PY) -m training.evaluation.model_card
 
@@ -50,6 +50,10 @@ eval: setup eval-camera-files
 # vs generic profile, held-out cameras (simulated, 30 real lamps; a few minutes on one core).
 eval-camera-files: setup
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --out bench/camera_files.md
+
+# Capture pose errors (lamp beside the lens, camera off centre, tilt, ambient, lamp size): numpy twin, minutes.
+eval-poses: setup
+	$(PY) -m training.evaluation.pose_errors --out bench/pose_errors.md
 
 bench: setup
 	$(PY) -m training.evaluation.bench --out bench/bench.md

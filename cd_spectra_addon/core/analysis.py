@@ -18,9 +18,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .ambient import dark_offset, rough_offset
 from .calibration import Calibration
 from .cameras import CameraProfile
 from .capture import Preset, Scene
+from .capture_advice import advice_for_photo
 from .diffraction import PixelDiffraction
 from .errors import NoDiscError, PhotoError
 from .forward_matrix import bin_response, feature_matrix
@@ -57,6 +59,7 @@ class Analysis:
     focal_px: float
     focal_source: str  # "exif", "exif-35mm", "preset" or "given"
     calibration: Calibration | None = None
+    ambient: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))  # offset removed per channel
     timing_ms: dict[str, float] = field(default_factory=dict)
 
 
@@ -123,10 +126,11 @@ def prepare(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:
-        fit = fit_pose(rgb, preset, focal_px)
+        fit = fit_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
-    measured = extract_readout(rgb, saturated, scene, pixels)
+    ambient = dark_offset(rgb, scene, saturated)
+    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene, pixels)
     t2 = time.perf_counter()
     readout = _with_gains(measured, calibration)
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
@@ -136,13 +140,14 @@ def prepare(
             hint = f" ({100 * clipped:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        raise NoDiscError(f"no CD rainbow found in {name}{hint}: photograph the disc "
-                          "with the lamp beside the lens, both on the disc's axis (see the capture guide)")
+        advice = advice_for_photo(preset, scene, fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST, rgb, saturated,
+                                  focal_px)
+        raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
     response = bin_response(scene, readout)
     t3 = time.perf_counter()
     return Analysis(fit=fit, scene=scene, readout=readout, uncalibrated=measured, response=response, camera=camera,
                     matrix=feature_matrix(response, camera), generic_camera=generic_camera, focal_px=float(focal_px),
-                    focal_source=source, calibration=calibration,
+                    focal_source=source, calibration=calibration, ambient=ambient,
                     timing_ms={"geometry": (t1 - t0) * 1e3, "profile": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 

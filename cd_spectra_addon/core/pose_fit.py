@@ -9,6 +9,9 @@ Three steps, cheapest first:
    makes the photo most self-consistent: pixels that share λ₁ must share colour once divided
    by the lobe's visibility. A wrong centre mixes rings of different colour in one λ₁ bin; a
    wrong lamp position predicts light where the photo is dark. No spectrum is needed for this.
+   The zero-order glint (the lamp's mirror image, clipped) is left out of that comparison, and
+   with the camera's sensitivities each λ₁ bin must have the camera's colour at λ₁, which
+   pins the wavelength axis along a single streak (bench/pose_errors.md).
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capture import Camera, Light, Pose, Preset, Scene
-from .diffraction import pixel_diffraction
+from .diffraction import PixelDiffraction, pixel_diffraction
+from .spectral_grid import WAVELENGTHS_NM
 from .readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
 
 FIT_SIDE = 160  # the pose is fitted on an image of about this size
@@ -31,7 +35,7 @@ FINE_PIXELS = 12_000  # pixels the full-resolution refinement looks at
 RETRY_CONTRAST = 0.5  # below this rainbow contrast the fit is tried again from a grid of centres
 RETRY_GRID = 7  # centres per image axis for that second start
 RETRY_MAX_RESIDUAL = 0.15  # ...whose fit is kept only if it explains a CD's share of the photo
-__all__ = ["PoseFit", "symmetry_centre", "scene_for", "consistency", "fit_pose", "box_downsample"]
+__all__ = ["PoseFit", "symmetry_centre", "scene_for", "consistency", "fit_pose", "ZERO_ORDER_SIGMAS", "box_downsample"]
 
 
 @dataclass(frozen=True)
@@ -155,14 +159,23 @@ def scene_for(
 
 def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = None,
                 scramble: bool = False, step_nm: float = FEATURE_STEP_NM,
-                pixels: NDArray[np.int64] | None = None) -> float:
+                pixels: NDArray[np.int64] | None = None, colour: NDArray[np.float64] | None = None) -> float:
     """Share of the photo's energy on the disc that I = A(λ₁)·amplitude cannot explain,
     with A fitted per λ₁ bin and channel by least squares.
+
+    ``colour`` (bins × 3, unit rows; NaN rows free) is the camera's own colour at each bin's λ₁
+    (:func:`expected_colours`): where given, A must be a multiple of it — a green pixel cannot be
+    620 nm. That pins the wavelength axis, which the self-consistency alone leaves free along a
+    single streak, and a pose a few pixels off shows up as a colour mismatch.
 
     ``scramble`` deals the pixels' (λ₁, visibility) pairs out at random (seeded): the same
     coverage and bin sizes, but no rainbow geometry — the baseline a real rainbow must beat.
     """
     px = pixel_diffraction(scene, pixels)
+    flat = rgb.reshape(-1, 3)
+    glint = _zero_order(px, scene)
+    glint_energy = float(np.sum(flat[px.index[glint]] ** 2))
+    px = PixelDiffraction(**{k: v[~glint] for k, v in px.__dict__.items()}) if np.any(glint) else px
     if scramble:
         order = np.random.default_rng(0).permutation(px.index.size)
         px = replace(px, lambda1_nm=px.lambda1_nm[order], visibility=px.visibility[order],
@@ -171,20 +184,63 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
     n_bins = int(round(N_FEATURES * FEATURE_STEP_NM / step_nm))
     b = np.floor((px.lambda1_nm - lam0) / step_nm).astype(np.int64)
     inside = px.on_tracks & (b >= 0) & (b < n_bins)
-    flat = rgb.reshape(-1, 3)
     vals = flat[px.index]
-    energy = float(np.sum(vals ** 2)) if total is None else total
+    energy = float(np.sum(vals ** 2)) if total is None else total - glint_energy
     if energy <= 0:
         return 1.0
     if not np.any(inside):  # no pixel where a first-order rainbow could be (e.g. a telephoto EXIF)
         return 1.0
     bi, vis, v = b[inside], px.amplitude[inside], vals[inside]
     vv = np.bincount(bi, weights=vis * vis, minlength=n_bins)
-    explained = 0.0
-    for c in range(3):
-        vi = np.bincount(bi, weights=vis * v[:, c], minlength=n_bins)
-        explained += float(np.sum(np.divide(vi * vi, vv, out=np.zeros_like(vi), where=vv > 1e-12)))
+    vi = np.stack([np.bincount(bi, weights=vis * v[:, c], minlength=n_bins) for c in range(3)], axis=1)
+    if colour is None:
+        along = np.sum(vi * vi, axis=1)
+    else:
+        free = np.isnan(colour[:, 0])
+        along = np.where(free, np.sum(vi * vi, axis=1), np.nansum(vi * colour, axis=1) ** 2)
+    explained = float(np.sum(np.divide(along, vv, out=np.zeros_like(vv), where=vv > 1e-12)))
     return 1.0 - explained / energy
+
+
+COLOUR_BAND_NM = (400.0, 750.0)  # λ₁ where only the first order shows (the second starts at 760 nm)
+
+
+def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float) -> NDArray[np.float64]:
+    """Unit camera colour per fit bin of width ``step_nm``: the sensitivities blurred by the
+    lobe and the pixel footprint (``blur_nm``, Gaussian std); NaN outside COLOUR_BAND_NM."""
+    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
+    n_bins = int(round(N_FEATURES * FEATURE_STEP_NM / step_nm))
+    centres = lam0 + (np.arange(n_bins) + 0.5) * step_nm
+    s = max(float(blur_nm), 1.0)
+    kernel = np.exp(-0.5 * ((centres[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
+    rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
+    norm = np.linalg.norm(rgb, axis=1, keepdims=True)
+    out = np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
+    out[(centres < COLOUR_BAND_NM[0]) | (centres > COLOUR_BAND_NM[1])] = np.nan
+    return out
+
+
+def colour_blur_nm(preset: Preset, sigma: float, focal_px: float) -> float:
+    """How far in λ₁ one bin's colour is smeared: the lamp's lobe (d·σ) and one pixel's span
+    of λ₁ (about d·2/focal_px), as a Gaussian std."""
+    pitch_nm = preset.disc.pitch_um * 1e3
+    return math.hypot(pitch_nm * sigma, pitch_nm * 2.0 / focal_px / math.sqrt(12.0))
+
+
+ZERO_ORDER_SIGMAS = 6.0  # the mirror glint's lobe, in lamp sizes, left out of the fit
+
+
+def _zero_order(px: PixelDiffraction, scene: Scene) -> NDArray[np.bool_]:
+    """Which pixels show the zero-order glint (where the disc mirrors the lamp into the lens).
+
+    A lamp beside the lens or a tilted disc puts that glint on the disc, tens of times brighter
+    than the rainbow and clipped: its energy would swamp the first-order fit, which does not
+    model it (with the lamp 30 mm beside the lens it held 94 % of the photo's energy, and the
+    fit's residual at the true pose was 0.94). It sits where u = v = 0, i.e. at the ring centre,
+    so it moves with the fitted pose; the region is a few pixels across, too small to hide a
+    rainbow in. One pixel spans about 2/focal_px in (u, v), so the cut widens by two of those."""
+    cut = ZERO_ORDER_SIGMAS * scene.preset.light.lobe_sigma + 4.0 / scene.preset.camera.focal_px
+    return np.hypot(px.u, px.v) < cut
 
 
 def _contrast(residual: float, null_residual: float) -> float:
@@ -262,8 +318,9 @@ def _informative_pixels(rgb: NDArray[np.float64], count: int) -> NDArray[np.int6
 
 
 def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: float, centre: tuple[float, float],
-            ring: tuple[float, float], sigma: float, max_evals: int) -> tuple[tuple[float, float], tuple[float, float],
-                                                                             float, int]:
+            ring: tuple[float, float], sigma: float, max_evals: int,
+            sensitivities: NDArray[np.float64] | None = None) -> tuple[tuple[float, float], tuple[float, float],
+                                                                       float, int]:
     """Both centres again at full resolution, on a subset of pixels, with fine λ₁ bins.
 
     Arcs and streaks pin the geometry only through their few pixels; at the coarse fit's
@@ -272,10 +329,12 @@ def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: flo
     height, width, _ = rgb.shape
     subset = _informative_pixels(rgb, FINE_PIXELS)
     total = float(np.sum(rgb.reshape(-1, 3)[subset] ** 2))
+    colour = None if sensitivities is None else \
+        expected_colours(sensitivities, FIT_STEP_NM, colour_blur_nm(preset, sigma, focal_px))
 
     def cost(y: NDArray[np.float64]) -> float:
         scene = scene_for(preset, (width, height), focal_px, (y[0], y[1]), (y[2], y[3]), sigma, dist)
-        return consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=subset)
+        return consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=subset, colour=colour)
 
     y = np.array([centre[0], centre[1], ring[0], ring[1]])
     value, evals = cost(y), 1
@@ -285,9 +344,26 @@ def _refine(rgb: NDArray[np.float64], preset: Preset, focal_px: float, dist: flo
     return (float(y[0]), float(y[1])), (float(y[2]), float(y[3])), value, evals
 
 
+def _preset_ring_centre(preset: Preset, image_size: tuple[int, int], focal_px: float, dist: float
+                        ) -> tuple[float, float]:
+    """Image position (row, col) of the mirror point the preset's lamp gives, camera looking
+    straight down at the image centre: m = D·l / (D + D_L) from the camera's foot."""
+    width, height = image_size
+    lx, ly, lz = preset.light.position_mm
+    cam_d = preset.camera.distance_mm
+    if lz <= 0:
+        return ((height - 1) / 2.0, (width - 1) / 2.0)
+    k = cam_d / (cam_d + lz) * focal_px / dist
+    return ((height / 2.0 - 0.5) - ly * k, (width / 2.0 - 0.5) + lx * k)
+
+
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
-                 max_evals: int = 150, distance_mm: float | None = None) -> PoseFit:
-    """Fit disc centre, ring centre and lamp size to a linear photo (coordinates of ``rgb``)."""
+             max_evals: int = 150, distance_mm: float | None = None,
+             sensitivities: NDArray[np.float64] | None = None) -> PoseFit:
+    """Fit disc centre, ring centre and lamp size to a linear photo (coordinates of ``rgb``).
+
+    With the camera's ``sensitivities`` (81 × 3) the fit also asks every λ₁ bin to have the
+    camera's colour at that wavelength (see :func:`consistency`)."""
     height, width, _ = rgb.shape
     factor = max(1, int(round(max(height, width) / FIT_SIDE)))
     small = box_downsample(rgb, factor)
@@ -309,16 +385,23 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     angle, strength = _axis_of_arcs(lum, sym, 20 * px_per_mm, 58 * px_per_mm)
     axis = np.array([-math.sin(angle), math.cos(angle)])  # (row, col) direction
     candidates = [0.0] if strength < 0.05 else [0.0, 1, -1, 2, -2, 4, -4, 8, -8, 16, -16]
-    best_t, best_cost = 0.0, math.inf
+    # Where are the rings centred? Where the photo is symmetric, or where the preset's lamp puts
+    # the mirror point (a lamp beside the lens moves the rings off the disc centre).
+    rings = [sym]
+    preset_ring = _preset_ring_centre(preset, (sw, sh), f_small, dist)
+    if math.dist(preset_ring, sym) > 1.0:
+        rings.append(preset_ring)
+    best_t, best_ring, best_cost = 0.0, sym, math.inf
     evals = 0
-    for t in candidates:
-        centre = (sym[0] + t * px_per_mm * axis[0], sym[1] + t * px_per_mm * axis[1])
-        c = cost_at(centre, sym, 0.0)
-        evals += 1
-        if c < best_cost:
-            best_t, best_cost = t, c
+    for ring0 in rings:
+        for t in candidates:
+            centre = (sym[0] + t * px_per_mm * axis[0], sym[1] + t * px_per_mm * axis[1])
+            c = cost_at(centre, ring0, 0.0)
+            evals += 1
+            if c < best_cost:
+                best_t, best_ring, best_cost = t, ring0, c
     start = np.array([sym[0] + best_t * px_per_mm * axis[0], sym[1] + best_t * px_per_mm * axis[1],
-                      sym[0], sym[1], 0.0])
+                      best_ring[0], best_ring[1], 0.0])
 
     def cost(x: NDArray[np.float64], log_sigma: float = 0.0) -> float:
         return cost_at((x[0], x[1]), (x[2], x[3]), log_sigma)
@@ -385,7 +468,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     centre, ring = to_full((x[0], x[1])), to_full((x[2], x[3]))
     if strength >= 0.05 and factor > 1:
         centre, ring, value, more = _refine(np.asarray(rgb, dtype=np.float64), preset, focal_px, dist, centre, ring,
-                                            sigma0 * math.exp(x[4]), max_evals)
+                                            sigma0 * math.exp(x[4]), max_evals, sensitivities)
         evals += more
     return PoseFit(
         center_px=centre,
