@@ -62,13 +62,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 def scene_from_args(args: argparse.Namespace) -> Scene:
     preset = load_preset(args.preset)
-    if args.camera_position_mm or args.light_position_mm:
+    camera_position = getattr(args, "camera_position_mm", None)  # render_basis shares this without the flags
+    light_position = getattr(args, "light_position_mm", None)
+    if camera_position or light_position:
         data = preset.to_dict()  # through the preset format, so the same validation applies
-        if args.camera_position_mm:
+        if camera_position:
             camera = {k: v for k, v in data["camera"].items() if k != "distance_mm"}  # derived from the position
-            data["camera"] = {**camera, "position_mm": list(args.camera_position_mm)}
-        if args.light_position_mm:
-            data["light"] = {**data["light"], "position_mm": list(args.light_position_mm)}
+            data["camera"] = {**camera, "position_mm": list(camera_position)}
+        if light_position:
+            data["light"] = {**data["light"], "position_mm": list(light_position)}
         preset = preset_from_dict(data)
     if args.size:
         if len(args.size) > 2 or min(args.size) < 8 or max(args.size) > 8192:
