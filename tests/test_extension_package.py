@@ -31,9 +31,7 @@ def test_manifest_fields_follow_blenders_rules() -> None:
     assert len(tagline) <= 64 and (tagline[-1].isalnum() or tagline[-1] in ")]}")
     assert re.fullmatch(r"\d+\.\d+\.\d+", MANIFEST["blender_version_min"])
     assert MANIFEST["blender_version_min"] == "4.2.0"
-    assert MANIFEST["blender_version_max"] == "5.1.0"  # 5.1 is Python 3.13: cp311 wheels fail
     assert MANIFEST["permissions"] == {"files": "Read CD photos and write spectra and calibration profiles"}
-    assert set(MANIFEST["platforms"]) == {"linux-x64", "windows-x64", "macos-arm64", "macos-x64"}
     assert MANIFEST["license"] == ["SPDX:GPL-3.0-or-later"]
     assert MANIFEST["wheels"] == []  # filled only in the build copy
 
@@ -45,23 +43,53 @@ def test_manifest_excludes_everything_that_does_not_ship() -> None:
         assert required in patterns
 
 
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(v) for v in text.split("."))
+
+
 def test_pins_never_bundle_numpy_and_keep_windows_loadable() -> None:
-    assert not any(name.lower().startswith("numpy") for name in build_extension.PINS)
-    assert set(build_extension.PINS) == {"onnxruntime", "pillow", "openexr"}
-    for package, versions in build_extension.PINS.items():
-        assert set(versions) == {p.blender for p in build_extension.PLATFORMS}, package
-    windows_ort = tuple(int(v) for v in build_extension.PINS["onnxruntime"]["windows-x64"].split("."))
-    assert windows_ort < (1, 19), "onnxruntime 1.19+ does not load in Blender on Windows (see README)"
+    for spec in build_extension.BUILDS:
+        assert not any(name.lower().startswith("numpy") for name in spec.pins), spec.name
+        assert set(spec.pins) == {"onnxruntime", "pillow", "openexr", "rawpy", "pillow-heif"}, spec.name
+        for package, versions in spec.pins.items():
+            assert set(versions) == {p.blender for p in spec.platforms}, (spec.name, package)
+    # Blender 4.2-5.0 on Windows bundle a VC++ runtime that onnxruntime 1.19+ cannot load with.
+    assert _version(build_extension.BLENDER_42.pins["onnxruntime"]["windows-x64"]) < (1, 19)
     assert not build_extension.wheel_name_ok("numpy-1.26.4-cp311-cp311-win_amd64.whl")
     assert build_extension.wheel_name_ok("onnxruntime-1.18.1-cp311-cp311-win_amd64.whl")
 
 
-def test_wheel_list_is_written_into_the_build_copy() -> None:
+def test_builds_split_blender_by_python_without_overlap() -> None:
+    old, new = build_extension.BLENDER_42, build_extension.BLENDER_51
+    assert (old.python, new.python) == ("3.11", "3.13")
+    assert old.blender_min == MANIFEST["blender_version_min"] == "4.2.0"
+    assert old.blender_max == new.blender_min == "5.1.0"  # max is exclusive: 5.1.0 is the new build's
+    assert new.blender_max is None
+    assert "macos-x64" not in {p.blender for p in new.platforms}  # no Intel-Mac Blender since 5.0
+    assert build_extension.build_for_python("3.11") is old
+    assert build_extension.build_for_python("3.13") is new
+    with pytest.raises(SystemExit):
+        build_extension.build_for_python("3.12")
+
+
+def test_committed_manifest_is_the_first_builds() -> None:
+    assert MANIFEST["blender_version_max"] == "5.1.0"  # 5.1 is Python 3.13: cp311 wheels fail
+    assert set(MANIFEST["platforms"]) == {p.blender for p in build_extension.BLENDER_42.platforms}
+
+
+@pytest.mark.parametrize("spec", build_extension.BUILDS, ids=lambda b: b.name)
+def test_build_copy_gets_its_range_platforms_and_wheels(spec: build_extension.Build) -> None:
     text = (ROOT / "blender_manifest.toml").read_text(encoding="utf-8")
-    names = ["onnxruntime-1.18.1-cp311-cp311-win_amd64.whl", "pillow-13.0.0-cp311-cp311-win_amd64.whl"]
-    built = tomllib.loads(build_extension.manifest_with_wheels(text, names))
+    tag = "cp" + spec.python.replace(".", "")
+    names = [f"onnxruntime-1.0.0-{tag}-{tag}-win_amd64.whl", f"pillow-13.0.0-{tag}-{tag}-win_amd64.whl"]
+    built = tomllib.loads(build_extension.manifest_for(text, spec, names))
     assert built["wheels"] == [f"./wheels/{n}" for n in names]
-    assert {k: v for k, v in built.items() if k != "wheels"} == {k: v for k, v in MANIFEST.items() if k != "wheels"}
+    assert built["blender_version_min"] == spec.blender_min
+    assert built.get("blender_version_max") == spec.blender_max
+    assert built["platforms"] == [p.blender for p in spec.platforms]
+    changed = {"wheels", "blender_version_min", "blender_version_max", "platforms"}
+    assert {k: v for k, v in built.items() if k not in changed} == {
+        k: v for k, v in MANIFEST.items() if k not in changed}
 
 
 @pytest.mark.blender
