@@ -17,6 +17,8 @@ _FORMATS: tuple[tuple[str, str, str, str, bool, str], ...] = (
     ("JSON", "JSON", ".json", "write_spd_json", True, "The SPD with its colour metrics and provenance"),
     ("PBRT", "pbrt-v4", ".spd", "write_spd_pbrt", False, "pbrt-v4 spectrum file (wavelength value pairs)"),
     ("TM2714", "IES TM-27-14", ".xml", "write_spd_tm2714", True, "IES TM-27-14 spectral data XML"),
+    ("MITSUBA", "Mitsuba (λ:value)", ".txt", "write_spd_mitsuba", False,
+     "wavelength:value pairs for Mitsuba 3's <spectrum value=...> and similar renderers"),
 )
 
 
