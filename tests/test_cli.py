@@ -200,7 +200,10 @@ def test_blend_holds_the_matched_lights(tmp_path: Path) -> None:
             assert "CD Spectra" in obj.data.node_tree.nodes
             assert all(0.0 <= c <= 1.0 for c in obj.data.color)
         assert len(bpy.data.node_groups) == 2
-        stored: dict[str, Any] = bpy.context.scene["cd_spectra"].to_dict()
+        # Blender 5 keeps bpy.props values apart from custom properties (bl_system_properties_get).
+        scene = bpy.context.scene
+        system = scene.bl_system_properties_get() if hasattr(scene, "bl_system_properties_get") else scene
+        stored: dict[str, Any] = system["cd_spectra"].to_dict()
         assert json.loads(stored["estimate_json"])["source"] == photos[-1]
     finally:
         bpy.ops.wm.read_homefile(app_template="")
