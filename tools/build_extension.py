@@ -130,13 +130,22 @@ def build_for_python(version: str | None = None) -> Build:
                      f"{', '.join(b.python for b in BUILDS)})")
 
 
-def blender_ext_script() -> Path:
+_FIND_BPY = "import importlib.util; s = importlib.util.find_spec('bpy'); print(s.origin if s and s.origin else '')"
+
+
+def blender_ext_script(python: Path | None = None) -> Path:
+    """Blender's extension tool from the bpy wheel of ``python`` (default: this interpreter)."""
     import importlib.util
 
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or spec.origin is None:
+    if python is None:
+        spec = importlib.util.find_spec("bpy")
+        origin = spec.origin if spec is not None else None
+    else:
+        found = subprocess.run([str(python), "-c", _FIND_BPY], capture_output=True, text=True)
+        origin = found.stdout.strip() or None
+    if origin is None:
         raise SystemExit("error: the bpy wheel is needed for Blender's extension tool (make setup)")
-    bpy_dir = Path(spec.origin).parent
+    bpy_dir = Path(origin).parent
     found = sorted(bpy_dir.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
     if not found:
         raise SystemExit(f"error: blender_ext.py not found under {bpy_dir}")
@@ -258,8 +267,8 @@ def check_version() -> str:
     return manifest["version"]
 
 
-def run_tool(script: Path, *args: str) -> str:
-    result = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True)
+def run_tool(script: Path, *args: str, python: Path | None = None) -> str:
+    result = subprocess.run([str(python or sys.executable), str(script), *args], capture_output=True, text=True)
     if result.returncode != 0:
         raise SystemExit(f"error: blender_ext {args[0]} failed:\n{result.stdout}{result.stderr}")
     return result.stdout
@@ -363,6 +372,9 @@ def build_one(build_spec: Build, dist: Path, stage_dir: Path, *, wheels: bool, o
             zips.append(target)
     for z in zips:
         run_tool(script, "validate", str(z))
+        if smoke_python is not None and Path(smoke_python).resolve() != Path(sys.executable).resolve():
+            # and by the tool of the Blender this build is for (bpy 5.x for the 5.1+ build)
+            run_tool(blender_ext_script(smoke_python), "validate", str(z), python=smoke_python)
         with zipfile.ZipFile(z) as zf:
             names = zf.namelist()
             bad = [n for n in names if n.startswith("wheels/") and not wheel_name_ok(n[7:])]
