@@ -193,3 +193,44 @@ def test_calibrate_then_estimate_with_the_profile(tmp_path: Path, incandescent_p
     (result,) = json.loads(out.read_text())
     assert result["calibration"] == "desk lamp"  # the profile's own name; its file is desk_lamp.json
     assert result["cct_k"] == pytest.approx(2856.0, abs=100.0)
+
+
+# --- compare --------------------------------------------------------------------------------------
+
+
+def test_compare_gives_the_cores_metrics(tmp_path: Path, result_file: Path) -> None:
+    from cd_spectra_addon.core.colour import compare_spds
+
+    results = json.loads(result_file.read_text())
+    reference = tmp_path / "meter.csv"
+    spd = np.asarray(results[0]["spd"])
+    reference.write_text("wavelength_nm,meter\n" + "".join(f"{w},{v}\n" for w, v in zip(WAVELENGTHS_NM, spd)))
+    proc = run_cli("compare", str(result_file), str(reference), "--json")
+    assert proc.returncode == 0, proc.stderr
+    rows = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert [r["source"] for r in rows] == [r["source"] for r in results]
+    assert rows[0]["mae_400_700"] == pytest.approx(0.0, abs=1e-12)  # the same spectrum
+    want = compare_spds(np.asarray(results[1]["spd"]), spd)
+    assert {k: v for k, v in rows[1].items() if k in want} == pytest.approx(want)
+    proc = run_cli("compare", str(result_file), str(reference))
+    assert proc.stdout.splitlines()[0] == f"{results[0]['source']} vs meter"
+    assert "  delta u'v': 0" in proc.stdout
+
+
+def test_compare_refuses_an_unreadable_reference(tmp_path: Path, result_file: Path) -> None:
+    bad = tmp_path / "meter.csv"
+    bad.write_text("this is not a table\n")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    proc = run_cli("compare", str(result_file), str(bad))
+    _assert_one_error(proc, tmp_path, before)
+    proc = run_cli("compare", str(result_file), str(tmp_path / "missing.csv"))
+    _assert_one_error(proc, tmp_path, before)
+
+
+def test_every_command_is_listed_and_documented() -> None:
+    from cd_spectra_addon import cli
+
+    assert [c.NAME for c in cli.COMMANDS] == list(cli.COMMAND_NAMES)
+    proc = run_cli("--help")
+    for command in cli.COMMANDS:
+        assert command.NAME in proc.stdout and command.HELP[:20] in " ".join(proc.stdout.split())

@@ -1,22 +1,26 @@
 """Headless command line: ``python -m cd_spectra_addon COMMAND ...`` without opening Blender.
 
 One module per command, each with ``NAME``, ``HELP``, ``add_arguments(parser)`` and
-``run(args, out) -> exit status``; :data:`COMMANDS` lists them (a new command is one line here).
+``run(args, out) -> exit status``; :data:`COMMAND_NAMES` lists them (a new command is one name
+there).
 Bad input exits with status 2 and a single ``error: ...`` line on stderr, and writes nothing.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from collections.abc import Callable, Sequence
 from types import ModuleType
 
-from . import calibrate, calibrations, cameras, estimate, export, presets
 from .common import EXIT_BAD_INPUT, Parser, UsageError
 
-COMMANDS: tuple[ModuleType, ...] = (estimate, export, calibrate, presets, cameras, calibrations)
-DEFAULT_PRESET = estimate.DEFAULT_PRESET
+# The commands, in the order `--help` lists them: a module of this package each.
+COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "presets", "cameras",
+                                  "calibrations")
+COMMANDS: tuple[ModuleType, ...] = tuple(importlib.import_module(f"{__name__}.{name}") for name in COMMAND_NAMES)
+DEFAULT_PRESET: str = COMMANDS[0].DEFAULT_PRESET
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -44,4 +48,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
 
 
-__all__ = ["COMMANDS", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "UsageError", "build_parser", "main", "run"]
+__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "UsageError", "build_parser", "main", "run"]
