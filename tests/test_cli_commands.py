@@ -81,8 +81,11 @@ def test_export_reads_json_lines_from_stdout(tmp_path: Path) -> None:
     assert [float(p.split(":")[0]) for p in pairs] == list(WAVELENGTHS_NM)
 
 
-@pytest.mark.parametrize("content", ["", "not json", "[]", '{"spd": [1, 2]}', '[{"spd": ' + json.dumps([0.0] * 81) + "}]",
-                                     '{"spd": ' + json.dumps([1.0] * 80 + [float("nan")]).replace("NaN", "NaN") + "}"])
+@pytest.mark.parametrize("content", [
+    "", "not json", "[]", '{"spd": [1, 2]}', '[{"spd": ' + json.dumps([0.0] * 81) + "}]",  # short, all dark
+    '{"spd": ' + json.dumps([1.0] * 80 + [float("nan")]) + "}",  # Python's json writes and reads NaN
+    '[{"spd": ' + json.dumps([1.0] * 81) + '}, {"spd": ' + json.dumps([-1.0] + [1.0] * 80) + "}]",  # 2nd bad
+])
 def test_export_refuses_a_broken_result_and_writes_nothing(tmp_path: Path, content: str) -> None:
     bad = tmp_path / "bad.json"
     bad.write_text(content)
