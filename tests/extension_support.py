@@ -45,10 +45,10 @@ class Installed:
 def build_test_zip(out_dir: Path) -> dict[str, Any]:
     sys.path.insert(0, str(ROOT))
     try:
-        from tools.build_extension import build
+        from tools.build_extension import build, build_for_python
     finally:
         sys.path.remove(str(ROOT))
-    return build(out_dir / "dist", out_dir / "stage", wheels=False)
+    return build(out_dir / "dist", out_dir / "stage", wheels=False, builds=(build_for_python(),))
 
 
 @pytest.fixture(scope="module")

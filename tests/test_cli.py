@@ -51,8 +51,9 @@ RUNNER = FAKE_ESTIMATOR + textwrap.dedent('''
 ''')
 
 
-def run_cli(*args: str, fake: bool = True, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+def run_cli(*args: str, fake: bool = True, cwd: Path = ROOT,
+            env_extra: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
     cmd = [sys.executable, "-c", RUNNER, *args] if fake else [sys.executable, "-m", "cd_spectra_addon", *args]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, env=env, timeout=300)
 
@@ -94,14 +95,42 @@ def test_one_json_object_per_photo_in_order(tmp_path: Path) -> None:
     out = tmp_path / "out.json"
     proc = run_cli("estimate", *photos, "--camera", "Nikon_D5100", "--json", str(out))
     assert proc.returncode == 0, proc.stderr
-    lines = proc.stdout.strip().splitlines()
-    objects = [json.loads(line) for line in lines]
+    objects = json.loads(out.read_text())
     assert [o["source"] for o in objects] == photos
     assert all(o["camera"] == "Nikon_D5100" and o["preset"] == "cd-default" for o in objects)
     assert all(len(o["spd"]) == 81 for o in objects)
-    assert json.loads(out.read_text()) == objects
     assert "BPY_NOT_LOADED" in proc.stderr
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp files left
+    # --json - : the same objects on stdout, one a line, nothing else there; progress on stderr.
+    proc = run_cli("estimate", *photos, "--camera", "Nikon_D5100", "--json", "-", "--progress")
+    assert proc.returncode == 0, proc.stderr
+    assert [json.loads(line) for line in proc.stdout.strip().splitlines()] == objects
+    assert [ln for ln in _stderr_lines(proc)] == [f"[{i}/3] {p}" for i, p in enumerate(photos, 1)]
+
+
+def test_default_output_is_a_summary_for_people(tmp_path: Path) -> None:
+    photos = _photos(tmp_path, "a.jpg", "bb.png")
+    out = tmp_path / "out.json"
+    proc = run_cli("estimate", *photos, "--json", str(out))
+    assert proc.returncode == 0, proc.stderr
+    results = json.loads(out.read_text())
+    lines = proc.stdout.splitlines()
+    assert lines[0] == photos[0]
+    r = results[0]
+    assert lines[1] == (f"  CCT {r['cct_k']:.0f} K, Duv {r['duv']:+.4f}, xy ({r['xy'][0]:.4f}, {r['xy'][1]:.4f}), "
+                        f"confidence {r['confidence']:.0%}")
+    assert photos[1] in lines
+    assert lines[-1] == f"wrote {out}"
+    assert not any(line.lstrip().startswith("{") for line in lines)  # no JSON for people
+
+
+def test_summary_shows_warnings_and_a_missing_cct() -> None:
+    from cd_spectra_addon.cli.estimate import summary
+
+    lines = summary({"source": "x.jpg", "cct_k": None, "duv": None, "xy": [0.2, 0.6], "confidence": 0.4,
+                     "warnings": ["the disc is partly out of frame"]})
+    assert lines[1].startswith("  no CCT") and "xy (0.2000, 0.6000)" in lines[1] and "40%" in lines[1]
+    assert lines[-1] == "  warning: the disc is partly out of frame"
 
 
 @pytest.mark.parametrize("args", [
@@ -144,9 +173,9 @@ def test_end_to_end_on_a_rendered_photo(tmp_path: Path) -> None:
     photo = render_sample_photo(tmp_path / "sample", 2856.0)
     proc = run_cli("estimate", str(photo), "--json", str(tmp_path / "out.json"), fake=False)
     assert proc.returncode == 0, proc.stderr
-    (result,) = [json.loads(line) for line in proc.stdout.strip().splitlines()]
+    (result,) = json.loads((tmp_path / "out.json").read_text())
     assert result["cct_k"] == pytest.approx(2856.0, abs=100.0)
-    assert json.loads((tmp_path / "out.json").read_text()) == [result]
+    assert f"CCT {result['cct_k']:.0f} K" in proc.stdout
 
 
 def test_real_entry_point_reports_bad_input(tmp_path: Path) -> None:
@@ -162,7 +191,7 @@ def test_blend_holds_the_matched_lights(tmp_path: Path) -> None:
 
     photos = _photos(tmp_path, "a.jpg", "bb.jpg")
     blend = tmp_path / "lights.blend"
-    proc = run_cli("estimate", *photos, "--blend", str(blend))
+    proc = run_cli("estimate", *photos, "--blend", str(blend), "--json", "-")
     assert proc.returncode == 0, proc.stderr
     assert "BPY_LOADED" in proc.stderr
     objects = [json.loads(line) for line in proc.stdout.strip().splitlines()]
@@ -177,7 +206,10 @@ def test_blend_holds_the_matched_lights(tmp_path: Path) -> None:
             assert "CD Spectra" in obj.data.node_tree.nodes
             assert all(0.0 <= c <= 1.0 for c in obj.data.color)
         assert len(bpy.data.node_groups) == 2
-        stored: dict[str, Any] = bpy.context.scene["cd_spectra"].to_dict()
+        # Blender 5 keeps bpy.props values apart from custom properties (bl_system_properties_get).
+        scene = bpy.context.scene
+        system = scene.bl_system_properties_get() if hasattr(scene, "bl_system_properties_get") else scene
+        stored: dict[str, Any] = system["cd_spectra"].to_dict()
         assert json.loads(stored["estimate_json"])["source"] == photos[-1]
     finally:
         bpy.ops.wm.read_homefile(app_template="")

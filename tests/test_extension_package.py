@@ -86,17 +86,18 @@ def test_one_version_everywhere() -> None:
     assert MANIFEST["version"] == pyproject["project"]["version"] == cd_spectra_addon.__version__
 
 
-def test_the_blender_we_test_with_is_in_the_supported_range(blender_ext: ModuleType) -> None:
+def test_the_blender_we_test_with_is_in_its_builds_range(blender_ext: ModuleType) -> None:
+    """bpy 4.5 (3.11) falls in the 4.2–5.0 build's range, bpy 5.2 (3.13) in the 5.1+ build's."""
+    spec = build_extension.build_for_python()
     tested = tuple(int(p) for p in importlib.metadata.version("bpy").split(".")[:3])
-    low = blender_ext.blender_version_parse_or_error(MANIFEST["blender_version_min"])
-    high = blender_ext.blender_version_parse_or_error(MANIFEST["blender_version_max"])
-    assert low <= tested < high, (low, tested, high)  # blender_version_max is exclusive
+    low = blender_ext.blender_version_parse_or_error(spec.blender_min)
+    assert low <= tested, (low, tested)
+    if spec.blender_max is not None:  # exclusive
+        assert tested < blender_ext.blender_version_parse_or_error(spec.blender_max), (tested, spec.blender_max)
 
 
 def test_build_makes_a_zip_for_every_declared_platform() -> None:
-    assert {p.blender for p in build_extension.PLATFORMS} == set(MANIFEST["platforms"])
-    for package, versions in build_extension.PINS.items():
-        assert set(versions) == set(MANIFEST["platforms"]), package
+    assert {p.blender for p in build_extension.BLENDER_42.platforms} == set(MANIFEST["platforms"])
 
 
 def test_exactly_the_addon_ships(blender_ext: ModuleType) -> None:
@@ -117,23 +118,62 @@ def test_exactly_the_addon_ships(blender_ext: ModuleType) -> None:
     assert {"__init__.py", "blender_manifest.toml", "models/cd_spectra.onnx"} <= shipped
 
 
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(v) for v in text.split("."))
+
+
 def test_pins_never_bundle_numpy_and_keep_windows_loadable() -> None:
-    assert not any(name.lower().startswith("numpy") for name in build_extension.PINS)
-    windows_ort = tuple(int(v) for v in build_extension.PINS["onnxruntime"]["windows-x64"].split("."))
-    assert windows_ort < (1, 19), "onnxruntime 1.19+ does not load in Blender on Windows (see README)"
+    for spec in build_extension.BUILDS:
+        assert not any(name.lower().startswith("numpy") for name in spec.pins), spec.name
+        assert set(spec.pins) == {"onnxruntime", "pillow", "openexr", "rawpy", "pillow-heif"}, spec.name
+        for package, versions in spec.pins.items():
+            assert set(versions) == {p.blender for p in spec.platforms}, (spec.name, package)
+    # Blender 4.2-5.0 on Windows bundle a VC++ runtime that onnxruntime 1.19+ cannot load with.
+    assert _version(build_extension.BLENDER_42.pins["onnxruntime"]["windows-x64"]) < (1, 19)
     assert not build_extension.wheel_name_ok("numpy-1.26.4-cp311-cp311-win_amd64.whl")
     assert build_extension.wheel_name_ok("onnxruntime-1.18.1-cp311-cp311-win_amd64.whl")
 
 
-def test_wheel_list_is_written_into_the_build_copy(blender_ext: ModuleType) -> None:
-    """The committed manifest lists no wheels (they are not in git; the build writes them in), and
-    the build copy is valid for Blender and differs from the source only in its wheel list."""
-    assert MANIFEST["wheels"] == []
-    names = ["onnxruntime-1.18.1-cp311-cp311-win_amd64.whl", "pillow-13.0.0-cp311-cp311-win_amd64.whl"]
-    built = tomllib.loads(build_extension.manifest_with_wheels(MANIFEST_TEXT, names))
+def test_builds_split_blender_by_python_without_overlap() -> None:
+    old, new = build_extension.BLENDER_42, build_extension.BLENDER_51
+    assert (old.python, new.python) == ("3.11", "3.13")
+    assert old.blender_min == MANIFEST["blender_version_min"] == "4.2.0"
+    assert old.blender_max == new.blender_min == "5.1.0"  # max is exclusive: 5.1.0 is the new build's
+    assert new.blender_max is None
+    assert "macos-x64" not in {p.blender for p in new.platforms}  # no Intel-Mac Blender since 5.0
+    assert build_extension.build_for_python("3.11") is old
+    assert build_extension.build_for_python("3.13") is new
+    with pytest.raises(SystemExit):
+        build_extension.build_for_python("3.12")
+
+
+def test_committed_manifest_is_the_first_builds() -> None:
+    assert MANIFEST["blender_version_max"] == "5.1.0"  # 5.1 is Python 3.13: cp311 wheels fail
+    assert set(MANIFEST["platforms"]) == {p.blender for p in build_extension.BLENDER_42.platforms}
+
+
+@pytest.mark.parametrize("spec", build_extension.BUILDS, ids=lambda b: b.name)
+def test_build_copy_gets_its_range_platforms_and_wheels(spec: build_extension.Build) -> None:
+    text = MANIFEST_TEXT
+    tag = "cp" + spec.python.replace(".", "")
+    names = [f"onnxruntime-1.0.0-{tag}-{tag}-win_amd64.whl", f"pillow-13.0.0-{tag}-{tag}-win_amd64.whl"]
+    built = tomllib.loads(build_extension.manifest_for(text, spec, names))
     assert built["wheels"] == [f"./wheels/{n}" for n in names]
+    assert built["blender_version_min"] == spec.blender_min
+    assert built.get("blender_version_max") == spec.blender_max
+    assert built["platforms"] == [p.blender for p in spec.platforms]
+    changed = {"wheels", "blender_version_min", "blender_version_max", "platforms"}
+    assert {k: v for k, v in built.items() if k not in changed} == {
+        k: v for k, v in MANIFEST.items() if k not in changed}
+
+
+@pytest.mark.parametrize("spec", build_extension.BUILDS, ids=lambda b: b.name)
+def test_each_build_copy_passes_blenders_validator(spec: build_extension.Build, blender_ext: ModuleType) -> None:
+    """The committed manifest lists no wheels (they are not in git; the build writes them in)."""
+    assert MANIFEST["wheels"] == []
+    tag = "cp" + spec.python.replace(".", "")
+    built = tomllib.loads(build_extension.manifest_for(MANIFEST_TEXT, spec, [f"onnxruntime-1.0.0-{tag}-{tag}-win_amd64.whl"]))
     assert _errors(blender_ext, built) == []
-    assert {k: v for k, v in built.items() if k != "wheels"} == {k: v for k, v in MANIFEST.items() if k != "wheels"}
 
 
 def test_built_zips_hold_every_wheel_they_list(blender_ext: ModuleType) -> None:

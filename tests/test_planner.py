@@ -13,7 +13,11 @@ from hypothesis import strategies as st
 
 from cd_spectra_addon.core.planner import Equipment, PlanError, plan_capture
 from cd_spectra_addon.core.setups import analyse, load_setup
-from cd_spectra_addon.plan_command import run_plan
+from cd_spectra_addon.cli import main as cli_main
+
+
+def run_plan(argv):
+    return cli_main(["plan", *argv])
 
 DISTANT = Equipment(lamp_distance_mm=2000.0, lamp_size_mm=10.0, focal_mm=26.0, phone=True)
 

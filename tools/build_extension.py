@@ -1,17 +1,24 @@
-"""Build the Blender extension: one zip per platform in dist/, each validated and smoke-tested.
+"""Build the Blender extension: two builds, one zip per platform each, validated and smoke-tested.
 
-    python tools/build_extension.py [--dist DIR] [--offline] [--skip-smoke-test]
+    python tools/build_extension.py [--dist DIR] [--offline] [--skip-smoke-test] [--build NAME]
+                                    [--python313 PATH]
 
-1. Download the pinned wheels for every platform (``pip download --only-binary=:all: --no-deps``)
-   into build/wheels/ (git-ignored, reused between builds; --offline uses only what is there).
-2. Stage the add-on in build/extension/: the files git knows (tracked or not ignored), the
-   wheels, and a copy of blender_manifest.toml with the wheel list written in. The committed
-   manifest keeps ``wheels = []`` so the pins live in one place (below).
-3. ``blender_ext.py build --split-platforms`` (Blender's own tool from the bpy wheel), then
-   ``blender_ext.py validate`` on every zip.
-4. Smoke test on this machine: the wheels of this platform's zip are unpacked next to the venv's
-   numpy 1.26 (what Blender bundles) in a Python started with ``-S`` (no site-packages), and must
-   import; onnxruntime must load every model in models/ and run it.
+Two builds with non-overlapping Blender ranges, because a wheel only loads in the Python it was
+built for and Blender 4.2.x may not filter a zip's wheels by Python tag:
+``blender4.2-5.0`` (CPython 3.11 wheels) and ``blender5.1plus`` (CPython 3.13 wheels).
+
+1. Download each build's pinned wheels for every platform (``pip download --only-binary=:all:
+   --no-deps --python-version X``) into build/wheels/<build>/ (git-ignored, reused between
+   builds; --offline uses only what is there). numpy is never bundled: Blender has its own.
+2. Stage the add-on in build/extension/<build>/: the files git knows (tracked or not ignored),
+   the wheels, and a copy of blender_manifest.toml with the build's Blender range, platforms and
+   wheel list written in. The committed manifest keeps ``wheels = []`` so the pins live here.
+3. ``blender_ext.py build --split-platforms`` (Blender's own tool from the bpy wheel), renamed to
+   ``cd_spectra-<version>-<build>-<platform>.zip``, then ``blender_ext.py validate`` on each zip.
+4. Smoke test on this machine: the wheels of this platform's zip are unpacked next to numpy of
+   the kind that Blender bundles (1.26 from .venv for 3.11, 2.x from .venv313 for 3.13) in a
+   Python started with ``-S`` (no site-packages), and must import; onnxruntime must load every
+   model in models/ and run it.
 
 Why these wheels and versions: see README, "Installing the extension".
 """
@@ -20,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -35,7 +43,6 @@ ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
 WHEEL_CACHE = ROOT / "build" / "wheels"
 STAGE = ROOT / "build" / "extension"
-PYTHON_VERSION = "3.11"  # Blender 4.2–5.0
 
 
 @dataclass(frozen=True)
@@ -44,37 +51,101 @@ class Platform:
     pip: str  # the pip --platform tag: the oldest OS this Blender platform supports
 
 
-# Blender 4.2 needs glibc 2.28 on Linux and macOS 11.2 on both Macs.
-PLATFORMS = (
-    Platform("linux-x64", "manylinux_2_28_x86_64"),
-    Platform("windows-x64", "win_amd64"),
-    Platform("macos-arm64", "macosx_11_0_arm64"),
-    Platform("macos-x64", "macosx_11_0_x86_64"),
+@dataclass(frozen=True)
+class Build:
+    """One extension build: a Blender range with one Python, and its wheels per platform.
+
+    The ranges never overlap, so each Blender sees exactly one build, and every wheel in it
+    matches that Blender's Python (Blender 4.2.x does not yet filter wheels by Python tag).
+    """
+
+    name: str  # in the zip names: cd_spectra-<version>-<name>-<platform>.zip
+    python: str  # the CPython version of every Blender in the range
+    blender_min: str
+    blender_max: str | None  # exclusive; None = open-ended
+    platforms: tuple[Platform, ...]
+    pins: dict[str, dict[str, str]]  # package -> Blender platform -> version
+    numpy_major: int  # the numpy that Blender bundles (never ours)
+
+
+# Blender 4.2–5.0 need glibc 2.28 on Linux and macOS 11.2 on both Macs; 5.0 dropped Intel Macs.
+LINUX = Platform("linux-x64", "manylinux_2_28_x86_64")
+WINDOWS = Platform("windows-x64", "win_amd64")
+MAC_ARM_11 = Platform("macos-arm64", "macosx_11_0_arm64")
+MAC_INTEL_11 = Platform("macos-x64", "macosx_11_0_x86_64")
+# Every cp313 onnxruntime macOS wheel (1.20–1.23) needs macOS 13: the 5.1+ Mac build does too.
+MAC_ARM_13 = Platform("macos-arm64", "macosx_13_0_arm64")
+
+
+def _same(version: str, platforms: tuple[Platform, ...]) -> dict[str, str]:
+    return {p.blender: version for p in platforms}
+
+
+_P42 = (LINUX, WINDOWS, MAC_ARM_11, MAC_INTEL_11)
+_P51 = (LINUX, WINDOWS, MAC_ARM_13)
+
+# Blender 4.2–5.0 (Python 3.11, numpy 1.26). onnxruntime 1.18.1 everywhere: the last release
+# built with the VS 2019 toolset (1.19+ fail to load inside Blender 4.2–5.0 on Windows, whose
+# bundled VC++ runtime is older than they need), the last with macOS 11 wheels (a universal2
+# wheel serves both Macs), built against numpy 1.x. Its declared dependencies (sympy, protobuf,
+# coloredlogs, flatbuffers, packaging) are not needed to load and run a model (the smoke test
+# proves it with none of them installed) and are left out: ~8 MB a zip. rawpy 0.28.0 has no
+# Intel-Mac wheel: 0.25.1 there. pillow-heif reads HEIC (see README for its libraries' licences).
+BLENDER_42 = Build(
+    name="blender4.2-5.0", python="3.11", blender_min="4.2.0", blender_max="5.1.0", platforms=_P42,
+    pins={
+        "onnxruntime": _same("1.18.1", _P42),
+        "pillow": _same("13.0.0", _P42),
+        "openexr": _same("3.5.3", _P42),
+        "rawpy": {**_same("0.28.0", _P42), "macos-x64": "0.25.1"},
+        "pillow-heif": _same("1.8.1", _P42),
+    },
+    numpy_major=1,
 )
+# Blender 5.1+ (Python 3.13, numpy 2; Blender's newer VC++ runtime loads current onnxruntime).
+BLENDER_51 = Build(
+    name="blender5.1plus", python="3.13", blender_min="5.1.0", blender_max=None, platforms=_P51,
+    pins={
+        "onnxruntime": _same("1.23.2", _P51),
+        "pillow": _same("13.0.0", _P51),
+        "openexr": _same("3.5.3", _P51),
+        "rawpy": _same("0.28.0", _P51),
+        "pillow-heif": _same("1.8.1", _P51),
+    },
+    numpy_major=2,
+)
+BUILDS = (BLENDER_42, BLENDER_51)
+NEVER_BUNDLE = ("numpy",)  # Blender's own numpy must stay the only one
+SMOKE_IMPORTS = {"onnxruntime": "onnxruntime", "pillow": "PIL.Image", "openexr": "OpenEXR",
+                 "rawpy": "rawpy", "pillow-heif": "pillow_heif"}
 
-# Pins per platform. onnxruntime 1.18.1 everywhere: the last release built with the VS 2019
-# toolset (1.19+ fail to load inside Blender on Windows, whose bundled VC++ runtime is older than
-# they need), the last with macOS 11 wheels (1.19+ need macOS 13; Blender 4.2 supports 11.2),
-# built against numpy 1.x (Blender bundles numpy 1.26). One version on every platform means the
-# model is tested against the one runtime every user gets. Its declared dependencies (sympy,
-# protobuf, coloredlogs, flatbuffers, packaging) are not needed to load and run a model (the
-# smoke test below proves it with none of them installed) and are left out: ~8 MB a zip.
-PINS: dict[str, dict[str, str]] = {
-    "onnxruntime": {p.blender: "1.18.1" for p in PLATFORMS},
-    "pillow": {p.blender: "13.0.0" for p in PLATFORMS},
-    "openexr": {p.blender: "3.5.3" for p in PLATFORMS},
-}
-NEVER_BUNDLE = ("numpy",)  # Blender's own numpy 1.x must stay the only one
-SMOKE_IMPORTS = {"onnxruntime": "onnxruntime", "pillow": "PIL.Image", "openexr": "OpenEXR"}
+
+def build_for_python(version: str | None = None) -> Build:
+    """The build whose Blenders run this Python (default: the running one)."""
+    version = version or f"{sys.version_info[0]}.{sys.version_info[1]}"
+    for candidate in BUILDS:
+        if candidate.python == version:
+            return candidate
+    raise SystemExit(f"error: no extension build for Python {version} (Blender runs "
+                     f"{', '.join(b.python for b in BUILDS)})")
 
 
-def blender_ext_script() -> Path:
+_FIND_BPY = "import importlib.util; s = importlib.util.find_spec('bpy'); print(s.origin if s and s.origin else '')"
+
+
+def blender_ext_script(python: Path | None = None) -> Path:
+    """Blender's extension tool from the bpy wheel of ``python`` (default: this interpreter)."""
     import importlib.util
 
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or spec.origin is None:
+    if python is None:
+        spec = importlib.util.find_spec("bpy")
+        origin = spec.origin if spec is not None else None
+    else:
+        found = subprocess.run([str(python), "-c", _FIND_BPY], capture_output=True, text=True)
+        origin = found.stdout.strip() or None
+    if origin is None:
         raise SystemExit("error: the bpy wheel is needed for Blender's extension tool (make setup)")
-    bpy_dir = Path(spec.origin).parent
+    bpy_dir = Path(origin).parent
     found = sorted(bpy_dir.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"))
     if not found:
         raise SystemExit(f"error: blender_ext.py not found under {bpy_dir}")
@@ -85,38 +156,43 @@ def wheel_name_ok(name: str) -> bool:
     return not any(name.lower().startswith(f"{bad}-") for bad in NEVER_BUNDLE)
 
 
-def download_wheels(offline: bool) -> dict[str, list[Path]]:
-    """Wheels per Blender platform (a universal2 wheel serves both Macs)."""
+def download_wheels(build_spec: Build, offline: bool) -> dict[str, list[Path]]:
+    """Wheels per Blender platform of one build, cached in build/wheels/<build>/<platform>/."""
     per_platform: dict[str, list[Path]] = {}
-    for platform in PLATFORMS:
-        dest = WHEEL_CACHE / platform.blender
+    for platform in build_spec.platforms:
+        dest = WHEEL_CACHE / build_spec.name / platform.blender
         dest.mkdir(parents=True, exist_ok=True)
         wheels = []
-        for package, versions in PINS.items():
+        for package, versions in build_spec.pins.items():
             version = versions[platform.blender]
-            pattern = f"{package.replace('-', '_')}-{version}-*.whl"
-            have = [p for p in dest.glob(pattern) if p.name.lower().startswith(package.lower())]
+            prefix = package.replace("-", "_").lower() + "-"
+            have = [p for p in dest.glob("*.whl") if p.name.lower().startswith(prefix)
+                    and f"-{version}-" in p.name]
             if not have:
                 if offline:
                     raise SystemExit(f"error: --offline but {package} {version} for {platform.blender} "
                                      f"is not in {dest}")
                 cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check",
                        "--only-binary=:all:", "--no-deps", "--platform", platform.pip,
-                       "--python-version", PYTHON_VERSION, "--implementation", "cp",
+                       "--python-version", build_spec.python, "--implementation", "cp",
                        "--dest", str(dest), f"{package}=={version}"]
                 result = subprocess.run(cmd, capture_output=True, text=True)
                 if result.returncode != 0:
                     raise SystemExit(f"error: pip could not download {package}=={version} for "
-                                     f"{platform.blender}:\n{result.stderr.strip()[-2000:]}")
-                have = [p for p in dest.glob("*.whl") if p.name.lower().startswith(package.lower() + "-")
+                                     f"{platform.blender} (Python {build_spec.python}):\n"
+                                     f"{result.stderr.strip()[-2000:]}")
+                have = [p for p in dest.glob("*.whl") if p.name.lower().startswith(prefix)
                         and f"-{version}-" in p.name]
             if len(have) != 1:
                 raise SystemExit(f"error: expected one {package} {version} wheel for {platform.blender}, "
                                  f"found {[p.name for p in have]}")
+            tag = "cp" + build_spec.python.replace(".", "")
+            if f"-{tag}-" not in have[0].name:
+                raise SystemExit(f"error: {have[0].name} is not a {tag} wheel ({build_spec.name})")
             wheels.append(have[0])
         bad = [w.name for w in wheels if not wheel_name_ok(w.name)]
         if bad:
-            raise SystemExit(f"error: refusing to bundle {bad}: Blender bundles numpy 1.x")
+            raise SystemExit(f"error: refusing to bundle {bad}: Blender bundles its own numpy")
         per_platform[platform.blender] = wheels
     return per_platform
 
@@ -139,11 +215,29 @@ def manifest_with_wheels(text: str, wheel_names: list[str]) -> str:
     return new
 
 
-def stage(per_platform: dict[str, list[Path]], where: Path = STAGE) -> Path:
+def _set_field(text: str, key: str, value: str | None) -> str:
+    """Rewrite (or, with None, drop) one top-level ``key = ...`` line of the manifest."""
+    pattern = rf"^{key}\s*=\s*(\[[^\]]*\]|\"[^\"\n]*\")[^\n]*\n"
+    if re.search(pattern, text, flags=re.MULTILINE) is None:
+        raise SystemExit(f"error: blender_manifest.toml needs a `{key} = ...` line")
+    return re.sub(pattern, "" if value is None else f"{key} = {value}\n", text, count=1, flags=re.MULTILINE)
+
+
+def manifest_for(text: str, build_spec: Build, wheel_names: list[str]) -> str:
+    """The committed manifest with one build's Blender range, platforms and wheels written in."""
+    text = _set_field(text, "blender_version_min", f'"{build_spec.blender_min}"')
+    text = _set_field(text, "blender_version_max",
+                      None if build_spec.blender_max is None else f'"{build_spec.blender_max}"')
+    text = _set_field(text, "platforms", "[" + ", ".join(f'"{p.blender}"' for p in build_spec.platforms) + "]")
+    return manifest_with_wheels(text, wheel_names)
+
+
+def stage(per_platform: dict[str, list[Path]], build_spec: Build, where: Path = STAGE) -> Path:
     if where.exists():
         shutil.rmtree(where)
     where.mkdir(parents=True)
-    skip_top = {"build", "dist", "wheels", "data", "out", ".venv", "training", "tests", "bench", "tools"}
+    skip_top = {"build", "dist", "wheels", "data", "out", ".venv", ".venv313", "training", "tests", "bench",
+                "tools"}
     for src in source_files():
         rel = src.relative_to(ROOT)
         if rel.parts[0] in skip_top:
@@ -158,7 +252,7 @@ def stage(per_platform: dict[str, list[Path]], where: Path = STAGE) -> Path:
         for wheel in wheels:
             shutil.copy2(wheel, wheel_dir / wheel.name)
             names.add(wheel.name)
-    text = manifest_with_wheels(MANIFEST.read_text(encoding="utf-8"), sorted(names))
+    text = manifest_for(MANIFEST.read_text(encoding="utf-8"), build_spec, sorted(names))
     (where / MANIFEST.name).write_text(text, encoding="utf-8")
     return where
 
@@ -173,8 +267,8 @@ def check_version() -> str:
     return manifest["version"]
 
 
-def run_tool(script: Path, *args: str) -> str:
-    result = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True)
+def run_tool(script: Path, *args: str, python: Path | None = None) -> str:
+    result = subprocess.run([str(python or sys.executable), str(script), *args], capture_output=True, text=True)
     if result.returncode != 0:
         raise SystemExit(f"error: blender_ext {args[0]} failed:\n{result.stdout}{result.stderr}")
     return result.stdout
@@ -193,12 +287,13 @@ SMOKE = r"""
 import json, sys, time
 sys.path[:0] = json.loads(sys.argv[1])
 import numpy
-assert numpy.__version__.startswith("1."), numpy.__version__
+assert numpy.__version__.startswith(sys.argv[4] + "."), numpy.__version__
 for name in json.loads(sys.argv[2]):
     __import__(name)
 import onnxruntime as ort
 import numpy as np
-out = {"numpy": numpy.__version__, "onnxruntime": ort.__version__, "models": {}}
+out = {"python": sys.version.split()[0], "numpy": numpy.__version__, "onnxruntime": ort.__version__,
+       "models": {}}
 for path in json.loads(sys.argv[3]):
     t = time.perf_counter()
     s = ort.InferenceSession(path, providers=["CPUExecutionProvider"])
@@ -211,11 +306,18 @@ for path in json.loads(sys.argv[3]):
 print(json.dumps(out))
 """
 
+NUMPY_DIR = "import numpy, os; print(os.path.dirname(numpy.__file__))"
 
-def smoke_test(zip_path: Path) -> dict[str, object]:
-    """Import the zip's wheels with numpy 1.26 only, and run every shipped model."""
-    import numpy
 
+def smoke_test(zip_path: Path, build_spec: Build, python: Path) -> dict[str, object]:
+    """Import the zip's wheels next to Blender's kind of numpy only, and run every shipped model.
+
+    ``python`` is an interpreter of the build's version whose numpy plays Blender's (the .venv
+    for 3.11 / numpy 1.26, .venv313 for 3.13 / numpy 2); it starts with ``-S`` (no site-packages).
+    """
+    probe = subprocess.run([str(python), "-c", NUMPY_DIR], capture_output=True, text=True)
+    if probe.returncode != 0:
+        raise SystemExit(f"error: {python} has no numpy for the smoke test:\n{probe.stderr[-1000:]}")
     with tempfile.TemporaryDirectory() as tmp:
         site = Path(tmp) / "site"
         with zipfile.ZipFile(zip_path) as zf:
@@ -227,51 +329,90 @@ def smoke_test(zip_path: Path) -> dict[str, object]:
                 wf.extractall(site)
         numpy_dir = Path(tmp) / "numpy_only"
         numpy_dir.mkdir()
-        (numpy_dir / "numpy").symlink_to(Path(numpy.__file__).parent, target_is_directory=True)
+        (numpy_dir / "numpy").symlink_to(Path(probe.stdout.strip()), target_is_directory=True)
         models = sorted(str(p) for p in (ROOT / "models").glob("*.onnx")) if (ROOT / "models").is_dir() else []
+        imports = [SMOKE_IMPORTS[name] for name in build_spec.pins]
         result = subprocess.run(
-            [sys.executable, "-S", "-c", SMOKE, json.dumps([str(site), str(numpy_dir)]),
-             json.dumps(list(SMOKE_IMPORTS.values())), json.dumps(models)],
+            [str(python), "-S", "-c", SMOKE, json.dumps([str(site), str(numpy_dir)]),
+             json.dumps(imports), json.dumps(models), str(build_spec.numpy_major)],
             capture_output=True, text=True)
         if result.returncode != 0:
             raise SystemExit(f"error: smoke test of {zip_path.name} failed:\n{result.stderr[-3000:]}")
         return json.loads(result.stdout.strip().splitlines()[-1])
 
 
-def build(dist: Path, stage_dir: Path = STAGE, *, wheels: bool = True, offline: bool = False,
-          smoke: bool = True) -> dict[str, object]:
-    """Build, validate and (with wheels, on a known platform) smoke-test; return a report."""
-    start = time.perf_counter()
+def zip_name(version: str, build_spec: Build, platform: str) -> str:
+    return f"cd_spectra-{version}-{build_spec.name}-{platform.replace('-', '_')}.zip"
+
+
+def build_one(build_spec: Build, dist: Path, stage_dir: Path, *, wheels: bool, offline: bool,
+              smoke_python: Path | None) -> dict[str, object]:
+    """One build's zips (one per platform), validated, renamed with the build's name."""
     version = check_version()
     script = blender_ext_script()
-    per_platform = download_wheels(offline) if wheels else {p.blender: [] for p in PLATFORMS}
+    start = time.perf_counter()
+    per_platform = download_wheels(build_spec, offline) if wheels else {p.blender: [] for p in build_spec.platforms}
     t_download = time.perf_counter() - start
-    source = stage(per_platform, stage_dir)
+    source = stage(per_platform, build_spec, stage_dir / build_spec.name)
     run_tool(script, "validate", str(source))
     dist.mkdir(parents=True, exist_ok=True)
-    for old in dist.glob(f"cd_spectra-{version}-*.zip"):
+    for old in dist.glob(f"cd_spectra-{version}-{build_spec.name}-*.zip"):
         old.unlink()
-    run_tool(script, "build", "--split-platforms", "--source-dir", str(source), "--output-dir", str(dist))
-    zips = sorted(dist.glob(f"cd_spectra-{version}-*.zip"))
-    expected = {f"cd_spectra-{version}-{p.blender.replace('-', '_')}.zip" for p in PLATFORMS}
-    if {z.name for z in zips} != expected:
-        raise SystemExit(f"error: expected {sorted(expected)}, built {[z.name for z in zips]}")
+    with tempfile.TemporaryDirectory(dir=dist) as raw:
+        run_tool(script, "build", "--split-platforms", "--source-dir", str(source), "--output-dir", raw)
+        made = sorted(Path(raw).glob(f"cd_spectra-{version}-*.zip"))
+        expected = {f"cd_spectra-{version}-{p.blender.replace('-', '_')}.zip": p.blender
+                    for p in build_spec.platforms}
+        if {z.name for z in made} != set(expected):
+            raise SystemExit(f"error: expected {sorted(expected)}, built {[z.name for z in made]}")
+        zips = []
+        for z in made:
+            target = dist / zip_name(version, build_spec, expected[z.name])
+            os.replace(z, target)
+            zips.append(target)
     for z in zips:
         run_tool(script, "validate", str(z))
+        if smoke_python is not None and Path(smoke_python).resolve() != Path(sys.executable).resolve():
+            # and by the tool of the Blender this build is for (bpy 5.x for the 5.1+ build)
+            run_tool(blender_ext_script(smoke_python), "validate", str(z), python=smoke_python)
         with zipfile.ZipFile(z) as zf:
-            bad = [n for n in zf.namelist() if n.startswith("wheels/") and not wheel_name_ok(n[7:])]
-            if bad:
-                raise SystemExit(f"error: {z.name} bundles {bad}")
+            names = zf.namelist()
+            bad = [n for n in names if n.startswith("wheels/") and not wheel_name_ok(n[7:])]
+            tag = "cp" + build_spec.python.replace(".", "")
+            foreign = [n for n in names if n.startswith("wheels/") and f"-{tag}-" not in n]
+            if bad or foreign:
+                raise SystemExit(f"error: {z.name} bundles {bad + foreign}")
     report: dict[str, object] = {
-        "version": version,
+        "blender": f">= {build_spec.blender_min}" + (f", < {build_spec.blender_max}" if build_spec.blender_max else ""),
+        "python": build_spec.python,
         "download_s": round(t_download, 1),
         "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in zips},
     }
     here = this_platform()
-    if here:
-        report["this_platform_zip"] = str(dist / f"cd_spectra-{version}-{here.replace('-', '_')}.zip")
-        if smoke and wheels:
-            report["smoke_test"] = smoke_test(Path(str(report["this_platform_zip"])))
+    if here and here in {p.blender for p in build_spec.platforms}:
+        report["this_platform_zip"] = str(dist / zip_name(version, build_spec, here))
+        if smoke_python is not None and wheels:
+            report["smoke_test"] = smoke_test(Path(str(report["this_platform_zip"])), build_spec, smoke_python)
+    return report
+
+
+def build(dist: Path, stage_dir: Path = STAGE, *, wheels: bool = True, offline: bool = False,
+          smoke: bool = True, builds: tuple[Build, ...] = BUILDS,
+          pythons: dict[str, Path] | None = None) -> dict[str, object]:
+    """Build, validate and (with wheels, where an interpreter is given) smoke-test; return a report.
+
+    ``pythons`` maps a build's Python version to the interpreter for its smoke test (the running
+    one serves its own version). With one build, the report also has its ``this_platform_zip``.
+    """
+    start = time.perf_counter()
+    pythons = {f"{sys.version_info[0]}.{sys.version_info[1]}": Path(sys.executable), **(pythons or {})}
+    report: dict[str, object] = {"version": check_version(), "builds": {}}
+    for spec in builds:
+        one = build_one(spec, dist, stage_dir, wheels=wheels, offline=offline,
+                        smoke_python=pythons.get(spec.python) if smoke else None)
+        report["builds"][spec.name] = one  # type: ignore[index]
+        if len(builds) == 1 and "this_platform_zip" in one:
+            report["this_platform_zip"] = one["this_platform_zip"]
     report["build_s"] = round(time.perf_counter() - start, 1)
     return report
 
@@ -283,11 +424,22 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--skip-smoke-test", action="store_true")
     p.add_argument("--no-wheels", action="store_true",
                    help="leave the wheels out (tests: the dependencies come from the venv)")
-    p.add_argument("--stage", type=Path, default=STAGE, help="where the build copy is made")
+    p.add_argument("--stage", type=Path, default=STAGE, help="where the build copies are made")
+    p.add_argument("--build", choices=[b.name for b in BUILDS], action="append",
+                   help="only this build (repeatable; default: all)")
+    p.add_argument("--python313", type=Path, default=ROOT / ".venv313" / "bin" / "python",
+                   help="a Python 3.13 with numpy 2 for the 5.1+ smoke test (make setup313)")
     args = p.parse_args(argv)
+    chosen = tuple(b for b in BUILDS if not args.build or b.name in args.build)
+    pythons = {"3.13": args.python313} if args.python313.exists() else {}
     report = build(args.dist, args.stage, wheels=not args.no_wheels, offline=args.offline,
-                   smoke=not args.skip_smoke_test)
+                   smoke=not args.skip_smoke_test, builds=chosen, pythons=pythons)
+    missing = [name for name, one in report["builds"].items()  # type: ignore[union-attr]
+               if not args.skip_smoke_test and not args.no_wheels and "this_platform_zip" in one
+               and "smoke_test" not in one]
     print(json.dumps(report, indent=2))
+    if missing:
+        print(f"warning: no interpreter to smoke-test {missing} (pass --python313)", file=sys.stderr)
     return 0
 
 

@@ -40,7 +40,8 @@ def light_name(meta: dict[str, Any], info: SpectralColour) -> str:
 
 def _wire(light: bpy.types.Light, group: bpy.types.NodeTree) -> None:
     """Group "Color" → Emission "Color" in the light's node tree (what Cycles renders)."""
-    if hasattr(light, "use_nodes"):
+    # Blender 5 lights always use nodes and deprecate use_nodes (removed in 6.0); 4.x needs it on.
+    if bpy.app.version < (5, 0, 0) and not light.use_nodes:
         light.use_nodes = True
     tree = light.node_tree
     if tree is None:

@@ -16,14 +16,40 @@ DEFAULT_WORKING_SPACE = "Linear Rec.709"
 
 
 def working_space() -> str:
-    """The scene-linear space light colours are given in.
+    """The scene-linear space light colours are given in (see :func:`working_space_and_warning`)."""
+    return working_space_and_warning()[0]
 
-    Blender 4.x is always Linear Rec.709; Blender 5 has a per-file working space setting
-    (``bpy.data.colorspace.working_space``), followed where present.
+
+def working_space_and_warning() -> tuple[str, str | None]:
+    """The file's working space, and a warning when it had to be assumed.
+
+    Blender 4.x is always Linear Rec.709 (no ``bpy.data.colorspace``). Blender 5 has a per-file
+    working space; its interop id (``lin_rec709_scene``, ``lin_rec2020_scene``,
+    ``lin_ap1_scene``) names it independently of the OCIO config's display names. A custom OCIO
+    config may have neither a known id nor a known name: Rec.709 then, and say so.
     """
+    from ..core.colour import known_working_space
+
     colorspace = getattr(bpy.data, "colorspace", None)
-    name = getattr(colorspace, "working_space", None) if colorspace is not None else None
-    return str(name) if name else DEFAULT_WORKING_SPACE
+    if colorspace is None:
+        return DEFAULT_WORKING_SPACE, None
+    interop = str(getattr(colorspace, "working_space_interop_id", "") or "")
+    name = str(getattr(colorspace, "working_space", "") or "")
+    for candidate in (interop, name):
+        known = known_working_space(candidate) if candidate else None
+        if known is not None:
+            return known, None
+    return DEFAULT_WORKING_SPACE, (
+        f"The file's working colour space ({name or interop or 'unnamed'}, from a custom OCIO config) "
+        f"is not one CD Spectra knows; light colours are in {DEFAULT_WORKING_SPACE}")
+
+
+def working_space_for(operator: Any) -> str:
+    """The working space for an operator's colours; an assumed one is reported as a warning."""
+    space, warning = working_space_and_warning()
+    if warning:
+        operator.report({"WARNING"}, warning)
+    return space
 
 
 @lru_cache(maxsize=8)
@@ -96,6 +122,8 @@ __all__ = [
     "DEFAULT_WORKING_SPACE",
     "GENERIC_CAMERA",
     "working_space",
+    "working_space_and_warning",
+    "working_space_for",
     "valid_spd",
     "last_estimate",
     "store_estimate",

@@ -47,6 +47,7 @@ __all__ = [
     "CCT_MAX_K",
     "DUV_MAX",
     "WORKING_SPACES",
+    "known_working_space",
     "LightColour",
     "spd_to_xyz",
     "spd_to_xy",
@@ -326,9 +327,15 @@ def cct_duv(xy_or_spd: ArrayLike) -> tuple[float | None, float | None]:
 # --- Blender working spaces ----------------------------------------------------------------
 
 
-def _space(space: str) -> str:
+def known_working_space(space: str) -> str | None:
+    """The canonical name of a working space (a name or Blender's interop id), None if unknown."""
     name = _SPACE_ALIASES.get(space, space)
-    if name not in WORKING_SPACES:
+    return name if name in WORKING_SPACES else None
+
+
+def _space(space: str) -> str:
+    name = known_working_space(space)
+    if name is None:
         raise CDSpectraError(f"unknown working colour space {space!r}; "
                              f"expected one of {', '.join(WORKING_SPACES)}")
     return name

@@ -7,7 +7,8 @@ colour-science is importable, i.e. not inside Blender). :func:`read_reference_sp
 reader from the file's content and extension. Values are resampled onto the product grid with
 :func:`~cd_spectra_addon.core.spectral_grid.resample_to_grid`.
 
-Writing: CSV, JSON (values + metadata), pbrt-v4 ``.spd`` and TM-27-14 XML. Every writer is
+Writing: CSV, JSON (values + metadata), pbrt-v4 ``.spd``, TM-27-14 XML and Mitsuba's
+``λ:value`` list. Every writer is
 atomic: it writes a temporary file in the target folder and renames it over the target
 (``os.replace``), so a crash, a full disk or an exception mid-write leaves the previous file
 as it was and never a half-written one. Failures raise :class:`CDSpectraError` with a message
@@ -52,12 +53,14 @@ __all__ = [
     "export_format",
     "read_reference_spd",
     "read_spd_json",
+    "read_spd_mitsuba",
     "read_spd_pbrt",
     "read_spd_tm2714",
     "read_spectra_csv",
     "safe_stem",
     "write_spd_csv",
     "write_spd_json",
+    "write_spd_mitsuba",
     "write_spd_pbrt",
     "write_spd_tm2714",
 ]
@@ -377,6 +380,35 @@ def read_spd_pbrt(path: str | Path) -> tuple[str, NDArray[np.float64]]:
     return name, _checked_reference(path, pairs[:, 0], pairs[:, 1])
 
 
+# --- Mitsuba 3 / "λ:value" --------------------------------------------------------------------------
+
+
+def write_spd_mitsuba(path: str | Path, spd: ArrayLike, name: str = "spd") -> Path:
+    """One line of ``wavelength:value`` pairs, comma separated: the string Mitsuba 3 takes in
+    ``<spectrum name="radiance" value="380:0.1, 385:0.12, ..."/>`` (linear interpolation between
+    samples, as ours), and the pair list other spectral renderers' scene formats paste in.
+
+    Nothing else is in the file (no comment syntax is shared by the formats it is pasted into),
+    so ``name`` is not written; it is kept for the writers' common signature.
+    """
+    values = _grid_spd(spd)
+    pairs = ", ".join(f"{_wavelength(wl)}:{_number(v)}" for wl, v in zip(WAVELENGTHS_NM, values, strict=True))
+    return _atomic_write(path, _write_bytes((pairs + "\n").encode("ascii")))
+
+
+def read_spd_mitsuba(path: str | Path) -> tuple[str, NDArray[np.float64]]:
+    """(name = file stem, SPD on the grid) from a ``λ:value, ...`` file (:func:`write_spd_mitsuba`)."""
+    path = Path(path)
+    text = _read_text(path, "a spectrum file").strip()
+    try:
+        pairs = np.array([[float(x) for x in item.split(":")] for item in text.split(",")], dtype=np.float64)
+    except ValueError as exc:
+        raise CDSpectraError(f"{path.name}: expected comma-separated wavelength:value pairs") from exc
+    if pairs.ndim != 2 or pairs.shape[1] != 2:
+        raise CDSpectraError(f"{path.name}: expected comma-separated wavelength:value pairs")
+    return path.stem, _checked_reference(path, pairs[:, 0], pairs[:, 1])
+
+
 # --- IES TM-27-14 (needs colour-science) ----------------------------------------------------------
 
 _NOT_A_LIGHT = {"reflectance", "transmittance", "absorptance", "R-Factor", "T-Factor"}
@@ -475,6 +507,8 @@ def read_reference_spd(path: str | Path, column: str | None = None) -> tuple[str
         return read_spd_tm2714(path)
     if suffix == ".spd":
         return read_spd_pbrt(path)
+    if re.match(rb"\s*\d+(\.\d*)?\s*:", head):  # "380:0.1, 385:..." (Mitsuba-style pairs)
+        return read_spd_mitsuba(path)
     try:
         table = read_spectra_csv(path)
     except ValueError as exc:
@@ -540,6 +574,8 @@ EXPORT_FORMATS: dict[str, ExportFormat] = {f.identifier: f for f in (
                  "pbrt-v4 spectrum file (wavelength value pairs)"),
     ExportFormat("TM2714", "IES TM-27-14", ".xml", write_spd_tm2714, True,
                  "IES TM-27-14 spectral data XML", needs_module="colour"),
+    ExportFormat("MITSUBA", "Mitsuba (λ:value)", ".txt", write_spd_mitsuba, False,
+                 "wavelength:value pairs for Mitsuba 3's <spectrum value=...> and similar renderers"),
 )}
 """Every export format by identifier, in menu order."""
 

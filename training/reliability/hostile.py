@@ -494,6 +494,8 @@ def cli_command(photo_path: Path, extra: Sequence[str] = ()) -> list[str]:
 def run_cli(case: Case, folder: Path, photo_path: Path, model_dir: Path | None, timeout: float = 120.0) -> Outcome:
     """Run the CLI on one case in a child process; ``folder`` is listed afterwards (no leftovers)."""
     extra = case.cli_args(folder) if case.cli_args else []
+    if "--json" not in extra:
+        extra += ["--json", "-"]  # the results on stdout (the default output is a summary for people)
     if case.preset_json is not None:
         extra += ["--preset", str(folder / "preset.json")]
     rss_file = folder / ".peak_rss"

@@ -41,7 +41,7 @@ class CDSPECTRA_OT_apply_to_light(bpy.types.Operator):
             return {"CANCELLED"}
         spd = state.valid_spd(data["spd"])
         try:
-            info = spectral_colour(spd, state.working_space())
+            info = spectral_colour(spd, state.working_space_for(self))
         except ValueError as exc:
             self.report({"ERROR"}, f"Cannot use this estimate: {exc}")
             return {"CANCELLED"}

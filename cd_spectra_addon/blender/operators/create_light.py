@@ -39,7 +39,7 @@ class CDSPECTRA_OT_create_light(bpy.types.Operator):
             return {"CANCELLED"}
         spd = state.valid_spd(data["spd"])
         try:
-            info = spectral_colour(spd, state.working_space())
+            info = spectral_colour(spd, state.working_space_for(self))
             obj = create_light(context.view_layer.active_layer_collection.collection, spd, info,
                                state.estimate_meta(data), self.light_type, context.scene.cursor.location)
         except ValueError as exc:

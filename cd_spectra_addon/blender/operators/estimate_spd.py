@@ -64,7 +64,7 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra has no estimator ({exc})")
             return {"CANCELLED"}
-        space = state.working_space()
+        space = state.working_space_for(self)
         with progress(context) as update:
             try:
                 update(0.0, "reading the photo")

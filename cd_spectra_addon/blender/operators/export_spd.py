@@ -22,14 +22,14 @@ def format_items(_self: Any, _context: Any) -> list[tuple[str, str, str]]:
 
 
 class CDSPECTRA_OT_export_spd(bpy.types.Operator, ExportHelper):
-    """Save the estimated spectrum (CSV, JSON, pbrt-v4 or IES TM-27-14)"""
+    """Save the estimated spectrum (CSV, JSON, pbrt-v4, IES TM-27-14 or Mitsuba λ:value)"""
 
     bl_idname = "cd_spectra.export_spd"
     bl_label = "Export SPD"
     bl_options = {"REGISTER", "UNDO"}
 
     filename_ext = ".csv"
-    filter_glob: StringProperty(default="*.csv;*.json;*.spd;*.xml", options={"HIDDEN"})
+    filter_glob: StringProperty(default="*.csv;*.json;*.spd;*.xml;*.txt", options={"HIDDEN"})
     file_format: EnumProperty(name="Format", items=format_items)
 
     @classmethod

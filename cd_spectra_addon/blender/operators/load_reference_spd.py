@@ -43,7 +43,7 @@ class CDSPECTRA_OT_load_reference_spd(bpy.types.Operator, ImportHelper):
                 raise ValueError("no usable spectrum between 380 and 780 nm")
             peak = max(spd)
             spd = [v / peak for v in spd]
-            info = spectral_colour(spd, state.working_space())
+            info = spectral_colour(spd, state.working_space_for(self))
             estimate = state.last_estimate(settings)
             metrics = compare(estimate["spd"], spd) if estimate is not None else {}
         except (OSError, ValueError, CDSpectraError) as exc:

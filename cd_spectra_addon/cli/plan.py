@@ -17,30 +17,18 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
 
-from .core.errors import CDSpectraError
-from .core.planner import Equipment, plan_capture, setup_summary
+from ..core.errors import CDSpectraError
+from .common import UsageError
 
-__all__ = ["run_plan", "build_plan_parser"]
-
-EXIT_BAD_INPUT = 2
+NAME = "plan"
+HELP = "where to put the lamp and the camera for the equipment you have"
 
 
-class _Usage(Exception):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        raise _Usage(message)
-
-
-def build_plan_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="python -m cd_spectra_addon plan", description=__doc__.split("\n\n")[0])
+def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lamp-distance-mm", type=float, required=True, help="how far from the disc the lamp can be")
     p.add_argument("--lamp-size-mm", type=float, required=True,
                    help="size of the glowing part (filament, LED, or the hole of a card in front of it)")
@@ -54,10 +42,11 @@ def build_plan_parser() -> argparse.ArgumentParser:
     p.add_argument("--lamp-housing-mm", type=float, default=80.0, help="size of the lamp's housing (default 80)")
     p.add_argument("--json", action="store_true", help="print the plan as JSON instead of text")
     p.add_argument("--write-preset", type=Path, metavar="OUT.json", help="save the plan as a capture preset")
-    return p
 
 
-def _equipment(args: argparse.Namespace) -> Equipment:
+def _equipment(args: argparse.Namespace) -> "Equipment":
+    from ..core.planner import Equipment
+
     return Equipment(lamp_distance_mm=args.lamp_distance_mm, lamp_size_mm=args.lamp_size_mm,
                      focal_mm=args.focal_mm, sensor_width_mm=args.sensor_width_mm, phone=bool(args.phone),
                      f_number=args.f_number, lamp_housing_mm=args.lamp_housing_mm, min_focus_mm=args.min_focus_mm)
@@ -80,13 +69,13 @@ def _write_preset(path: Path, data: dict) -> None:
 
 
 def _text(plan: object) -> str:
-    from .core.planner import Plan
+    from ..core.planner import Plan, setup_summary as _summary
 
     assert isinstance(plan, Plan)
     lines = [f"Set-up: {plan.family}"]
     lines += [f"  {i}. {step}" for i, step in enumerate(plan.instructions(), 1)]
     lines.append("Expected:")
-    lines += [f"  {line}" for line in setup_summary(plan.report)]
+    lines += [f"  {line}" for line in _summary(plan.report)]
     where = ", ".join(f"{lam:g} nm at r = {abs(s[0]):.1f} mm" for lam, s in plan.report.positions_mm.items()
                       if s and 23.0 <= abs(s[0]) <= 58.5)
     if where:
@@ -94,10 +83,11 @@ def _text(plan: object) -> str:
     return "\n".join(lines)
 
 
-def run_plan(argv: list[str]) -> int:
-    """Run the plan command; prints the plan (or one ``error:`` line) and returns the exit status."""
+def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """Plan, print the steps (or the plan as JSON) and write the preset when asked."""
+    from ..core.planner import plan_capture
+
     try:
-        args = build_plan_parser().parse_args(argv)
         plan = plan_capture(_equipment(args), name=args.write_preset.stem if args.write_preset else "planned")
         if args.write_preset is not None:
             preset = plan.setup.preset.to_dict()
@@ -111,10 +101,7 @@ def run_plan(argv: list[str]) -> int:
                 "steps": plan.instructions(),
             }
             _write_preset(args.write_preset, preset)
-    except (_Usage, CDSpectraError) as exc:
-        print(f"error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except SystemExit as exc:  # --help
-        return int(exc.code or 0)
-    print(json.dumps(plan.to_dict(), indent=2, ensure_ascii=False) if args.json else _text(plan))
+    except CDSpectraError as exc:
+        raise UsageError(str(exc)) from exc
+    out(json.dumps(plan.to_dict(), indent=2, ensure_ascii=False) if args.json else _text(plan))
     return 0

@@ -1,0 +1,51 @@
+"""Headless command line: ``python -m cd_spectra_addon COMMAND ...`` without opening Blender.
+
+One module per command, each with ``NAME``, ``HELP``, ``add_arguments(parser)`` and
+``run(args, out) -> exit status``; :data:`COMMAND_NAMES` lists them (a new command is one name
+there).
+Bad input exits with status 2 and a single ``error: ...`` line on stderr, and writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Callable, Sequence
+from types import ModuleType
+
+from .common import EXIT_BAD_INPUT, Parser, UsageError
+
+# The commands, in the order `--help` lists them: a module of this package each.
+COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "plan", "presets", "cameras",
+                                  "calibrations")
+COMMANDS: tuple[ModuleType, ...] = tuple(importlib.import_module(f"{__name__}.{name}") for name in COMMAND_NAMES)
+from ..core.capture import DEFAULT_PRESET  # noqa: E402  (re-exported for callers of the CLI)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="python -m cd_spectra_addon",
+                    description="CD Spectra: a lamp's spectrum from one photo of a CD.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser, metavar="COMMAND")
+    for command in COMMANDS:
+        command.add_arguments(sub.add_parser(command.NAME, help=command.HELP,
+                                             description=(command.__doc__ or "").strip()))
+    return parser
+
+
+def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print) -> int:
+    args = build_parser().parse_args(argv)
+    command = next(c for c in COMMANDS if c.NAME == args.command)
+    return int(command.run(args, out))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        return run(argv)
+    except UsageError as exc:
+        message = " ".join(str(exc).split())  # exactly one line
+        print(f"error: {message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "UsageError", "build_parser", "main", "run"]

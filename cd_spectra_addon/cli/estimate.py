@@ -1,0 +1,201 @@
+"""``estimate PHOTO...``: the lamp's SPD from photos of a CD.
+
+By default a short summary per photo for people (source, CCT, Duv, xy, confidence, warnings,
+where files went). ``--json FILE`` writes the results (``Estimate.to_json()``) as a JSON array,
+``--json -`` prints them to stdout, one object per line, in the order given (and no summary).
+``--blend`` saves a scene with one matched spot light per photo (bpy is imported only then);
+``--plot`` draws the SPDs with their uncertainty (matplotlib, imported only then). With several
+photos, progress goes to stderr (when it is a terminal, or with ``--progress``). Files appear
+whole or not at all; bad input writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from ..core.cameras import DEFAULT_CAMERA
+from ..core.capture import DEFAULT_PRESET
+from .common import STDOUT, UsageError, atomic_path, check_output, progress, quiet_fds, writing
+
+NAME = "estimate"
+HELP = "estimate the lamp's SPD from photos of a CD"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("photos", nargs="+", type=Path, metavar="PHOTO",
+                        help="JPEG, PNG, TIFF, EXR (and camera raw / HEIC where this build reads them)")
+    parser.add_argument("--preset", default=DEFAULT_PRESET, help=f"capture preset (default {DEFAULT_PRESET})")
+    parser.add_argument("--camera", default="auto",
+                        help="camera profile (default: from the photo's EXIF Make/Model, else the generic profile "
+                             f"with a warning; e.g. {DEFAULT_CAMERA}; see `cameras`)")
+    parser.add_argument("--calibration", default=None, help="calibration profile name (see `calibrations`)")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON; '-' for stdout")
+    parser.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")
+    parser.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the SPDs (needs matplotlib)")
+    parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                        help="a line on stderr per photo when there are several (default: when stderr "
+                             "is a terminal)")
+
+
+def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
+    try:
+        from ..core.estimate import estimate_photo
+    except ImportError as exc:
+        raise UsageError(f"this build has no estimator ({exc})") from exc
+    results = []
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+    many = show and len(args.photos) > 1
+    for i, photo in enumerate(args.photos, 1):
+        try:
+            photo.stat()
+        except FileNotFoundError:
+            raise UsageError(f"{photo}: no such file") from None
+        except OSError as exc:  # e.g. a name too long for the file system
+            raise UsageError(f"{photo}: cannot access the file ({exc.strerror or exc})") from None
+        if many:
+            progress(f"[{i}/{len(args.photos)}] {photo}")
+        try:
+            estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
+                                      calibration=args.calibration)
+        except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
+            message = str(exc)  # the loader's messages already start with the path: say it once
+            raise UsageError(message if message.startswith(str(photo)) else f"{photo}: {message}") from exc
+        results.append(estimate.to_json())
+    return results
+
+
+def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
+    """The estimated SPDs with their one-sigma band, the physics-only solution dashed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:
+        raise UsageError(f"--plot needs matplotlib ({exc})") from exc
+    fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=120)
+    for data in results:
+        wl, spd = data["wavelength_nm"], data["spd"]
+        label = Path(str(data.get("source", ""))).name
+        cct = data.get("cct_k")
+        if cct:
+            label += f" ({cct:.0f} K)"
+        line = ax.plot(wl, spd, lw=1.8, label=label)[0]
+        lo = [max(0.0, v - s) for v, s in zip(spd, data["spd_std"])]
+        hi = [v + s for v, s in zip(spd, data["spd_std"])]
+        ax.fill_between(wl, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
+        if "physics_spd" in data:
+            ax.plot(wl, data["physics_spd"], ls="--", lw=0.8, color=line.get_color(), alpha=0.7)
+    ax.axvspan(380, 400, color="0.9", lw=0)
+    ax.axvspan(700, 780, color="0.9", lw=0)
+    ax.set(xlim=(380, 780), ylim=(0, 1.15), xlabel="wavelength (nm)", ylabel="relative power",
+           title="CD Spectra estimate (shaded: camera nearly blind; dashed: physics only)")
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png")
+    plt.close(fig)
+
+
+def _blender_fallback_decoder(path: str, header: Any) -> Any:
+    """Blender's image loader for the few photo layouts Pillow cannot read (16-bit grey+alpha,
+    float TIFF, ...): bpy is imported only when such a photo turns up."""
+    try:
+        with quiet_fds():
+            from ..blender.image_decoder import decode_with_blender
+    except ImportError:
+        return None
+    with quiet_fds():
+        return decode_with_blender(path, header)
+
+
+def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
+    """A scene with one matched spot light per estimate, 1 m apart, 2 m up, pointing down."""
+    with quiet_fds():
+        import bpy
+
+        from ..blender import properties, state
+        from ..blender.light import create_light
+        from ..core.colour import spectral_colour
+
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        space = state.working_space()
+        properties.register()
+        try:
+            scene = bpy.context.scene
+            for i, data in enumerate(results):
+                spd = state.valid_spd(data.get("spd", ()))
+                if spd is None:
+                    raise UsageError(f"{data.get('source')}: the estimate is not a usable spectrum")
+                try:
+                    info = spectral_colour(spd, space)
+                except ValueError as exc:
+                    raise UsageError(f"{data.get('source')}: {exc}") from exc
+                obj = create_light(scene.collection, spd, info, state.estimate_meta(data), "SPOT",
+                                   (float(i), 0.0, 2.0))
+                settings = scene.cd_spectra
+                state.store_estimate(settings, data)
+                settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
+                settings.photo_path = str(data.get("source") or "")
+            try:
+                with atomic_path(path) as tmp:
+                    bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
+            except RuntimeError as exc:  # bpy reports a failed save as RuntimeError
+                raise UsageError(f"cannot write {path}: {' '.join(str(exc).split())}") from exc
+        finally:
+            properties.unregister()
+
+
+def summary(data: dict[str, Any]) -> list[str]:
+    """A few lines a person reads: which photo, the lamp's colour, how sure, what to watch."""
+    lines = [str(data.get("source") or "?")]
+    cct, duv, xy = data.get("cct_k"), data.get("duv"), data.get("xy") or (float("nan"), float("nan"))
+    colour = f"CCT {cct:.0f} K, Duv {duv:+.4f}" if cct is not None and duv is not None else "no CCT (far from white)"
+    lines.append(f"  {colour}, xy ({xy[0]:.4f}, {xy[1]:.4f}), confidence {float(data.get('confidence', 0)):.0%}")
+    extras = [f"{key} {data[key]}" for key in ("preset", "camera", "calibration") if data.get(key)]
+    if extras:
+        lines.append("  " + ", ".join(extras))
+    lines += [f"  warning: {w}" for w in data.get("warnings") or []]
+    return lines
+
+
+def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    to_stdout = args.json is not None and str(args.json) == STDOUT
+    check_output(args.json)
+    check_output(args.blend, ".blend")
+    check_output(args.plot, ".png")
+    from ..core.images import register_decoder, unregister_decoder
+
+    register_decoder(_blender_fallback_decoder)
+    try:
+        results = _estimate_all(args)
+    finally:
+        unregister_decoder(_blender_fallback_decoder)
+    written = []
+    if args.blend is not None:
+        with writing(args.blend):
+            write_blend(results, args.blend)
+        written.append(args.blend)
+    if args.plot is not None:
+        with writing(args.plot):
+            write_plot(results, args.plot)
+        written.append(args.plot)
+    if args.json is not None and not to_stdout:
+        with writing(args.json), atomic_path(args.json) as tmp:
+            tmp.write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+        written.append(args.json)
+    if to_stdout:
+        for data in results:
+            out(json.dumps(data))
+        return 0
+    for data in results:
+        for line in summary(data):
+            out(line)
+    if written:
+        out("wrote " + ", ".join(str(p) for p in written))
+    return 0
