@@ -24,7 +24,7 @@ from .cameras import CameraProfile
 from .capture import Preset, Scene
 from .capture_advice import advice_for_photo
 from .diffraction import PixelDiffraction
-from .errors import NoDiscError, PhotoError
+from .errors import CDSpectraError, NoDiscError, PhotoError
 from .forward_matrix import bin_response, feature_matrix
 from .images import LinearImage
 from .model import model_inputs
@@ -110,6 +110,13 @@ def prepare(
     clipped almost everywhere and :class:`NoDiscError` where no CD rainbow is found.
     """
     t0 = time.perf_counter()
+    if not preset.camera.is_on_axis:
+        # Measured (issue 10): the pose fit models a camera above the disc's centre; an oblique
+        # photo was refused as "very dark" with advice to move the lamp — wrong for its set-up.
+        raise CDSpectraError(
+            f"the preset {preset.name!r} puts the camera off the disc's axis (an oblique set-up): this version "
+            "plans and renders oblique set-ups but reads only photos taken from above the disc's centre — "
+            "use a near-axis set-up such as 'phone-near-axis' (see the README's capture set-ups)")
     clipped = float(np.mean(image.saturated))
     if clipped > MAX_SATURATED_SHARE:
         raise PhotoError(f"{image.path or 'the photo'}: over-exposed, {100 * clipped:.0f}% of the photo is clipped "
