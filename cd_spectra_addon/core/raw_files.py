@@ -175,6 +175,11 @@ def read_raw(path: str | Path, data: bytes | None = None) -> RawPhoto:
             original = (int(sizes.width), int(sizes.height))
     except PhotoError as exc:
         raise PhotoError(f"{name}: {exc}") from None
+    except NotImplementedError as exc:
+        # rawpy raises this for a colour-filter code it has no pattern for (seen on a damaged DNG
+        # header: "filters: 148"); it is the file, not the product, that is unusual.
+        raise PhotoError(f"{name}: this raw file's colour filter layout is not supported or the file is "
+                         f"damaged ({exc})") from None
     except rawpy.LibRawError as exc:
         detail = exc.args[0].decode("utf-8", "replace") if exc.args and isinstance(exc.args[0], bytes) else str(exc)
         raise PhotoError(f"{name}: LibRaw cannot read this raw file; it is damaged, truncated or a camera "
