@@ -195,3 +195,53 @@ def test_camera_defaults_are_the_original_on_axis_camera():
     moved = Camera(position_mm=(10.0, -20.0, 200.0), distance_mm=math.dist((10, -20, 200), (0, 0, 0)))
     assert not moved.is_on_axis
     assert np.allclose(moved.rotation()[:, 2], np.array([10.0, -20.0, 200.0]) / moved.distance_mm)
+
+
+@settings(max_examples=40, deadline=None)
+@given(turn=st.tuples(st.floats(-8, 8), st.floats(-8, 8)), offset=st.tuples(st.floats(-10, 10), st.floats(-10, 10)))
+def test_a_turned_camera_keeps_its_place_and_only_re_aims_its_rays(turn, offset):
+    """Pose.camera_rotation_deg turns the camera about its own centre: the same world rays reach
+    it (a point's direction from the camera is unchanged), only their pixels move; the image
+    centre now looks along the turned axis, and rays and projection still invert each other."""
+    preset = load_preset("cd-default").with_image_size(64)
+    straight, turned = Scene(preset, Pose(camera_offset_mm=offset)), Scene(preset, Pose(camera_offset_mm=offset,
+                                                                                         camera_rotation_deg=turn))
+    assert np.array_equal(straight.camera_position, turned.camera_position)
+    assert turned.looks_straight_down == (turn == (0.0, 0.0))
+    rows, cols = np.random.default_rng(1).uniform(0, 63, (2, 30))
+    dirs = turned.pixel_rays(rows, cols)
+    back = turned.project(turned.camera_position + 0.2 * dirs)
+    assert np.allclose(back, np.stack([rows, cols], axis=1), atol=1e-6)
+    forward = -turned.camera_rotation[:, 2]
+    ax, ay = (math.radians(a) for a in turn)
+    assert math.isclose(forward @ (0, 0, -1), math.cos(ax) * math.cos(ay), abs_tol=1e-12)
+    # The optical axis meets the disc plane at camera_look_at.
+    aim = turned.camera_look_at
+    assert abs(aim[2]) < 1e-12 and np.allclose(np.cross(aim - turned.camera_position, forward), 0, atol=1e-12)
+
+
+def test_a_camera_turned_by_a_small_angle_moves_the_disc_centre_by_f_tan_angle():
+    preset = load_preset("cd-default").with_image_size(200)
+    scene = Scene(preset, Pose(camera_rotation_deg=(0.0, 2.0)))  # about image up: the disc moves sideways
+    row, col = scene.project(np.zeros((1, 3)))[0]
+    f = preset.camera.focal_px
+    assert math.isclose(row, 99.5, abs_tol=1e-9)
+    assert math.isclose(abs(col - 99.5), f * math.tan(math.radians(2.0)), rel_tol=1e-9)
+    # pixel_diffraction takes the general path for a turned camera and sees the same disc points
+    # the straight camera sees (rays through the same world points give the same λ₁).
+    straight = Scene(preset)
+    px = pixel_diffraction(scene)
+    points = px.points[:200]
+    rc = straight.project(points)
+    ref = pixel_diffraction(straight, np.zeros(len(rc), np.int64), rc[:, 0], rc[:, 1])
+    assert np.allclose(ref.lambda1_nm, px.lambda1_nm[:200], atol=1e-6)
+
+
+def test_a_lamp_swung_about_the_disc_keeps_its_distance():
+    preset = load_preset("phone-distant-lamp")
+    scene = Scene(preset, Pose(light_rotation_deg=(3.0, -2.0)))
+    base = np.asarray(preset.light.position_mm) * 1e-3
+    moved = scene.light_position
+    assert math.isclose(np.linalg.norm(moved), np.linalg.norm(base), rel_tol=1e-12)
+    angle = math.degrees(math.acos(moved @ base / np.linalg.norm(base) ** 2))
+    assert 2.0 < angle < 5.0

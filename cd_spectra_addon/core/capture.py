@@ -33,6 +33,7 @@ __all__ = [
     "Preset",
     "Pose",
     "Scene",
+    "rotation_xy",
     "PRESET_DIR",
     "DEFAULT_PRESET",
     "preset_names",
@@ -159,11 +160,28 @@ class Preset:
 
 @dataclass(frozen=True)
 class Pose:
-    """Departures from the preset: lateral offsets (mm) and a disc tilt about x and y (degrees)."""
+    """Departures from the preset: lateral offsets (mm), a disc tilt about x and y (degrees), the
+    camera turned about its own image axes (degrees: about image right, then image up — a
+    camera aimed a few degrees off), and the lamp swung about the disc centre (degrees, about
+    world x then y — a lamp placed a few degrees off its stated angle, whatever its distance)."""
 
     camera_offset_mm: tuple[float, float] = (0.0, 0.0)
     light_offset_mm: tuple[float, float] = (0.0, 0.0)
     tilt_deg: tuple[float, float] = (0.0, 0.0)
+    camera_rotation_deg: tuple[float, float] = (0.0, 0.0)
+    light_rotation_deg: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def turns_camera(self) -> bool:
+        return self.camera_rotation_deg != (0.0, 0.0)
+
+
+def rotation_xy(ax_deg: float, ay_deg: float) -> NDArray[np.float64]:
+    """Rotation about x by ``ax_deg`` then about y by ``ay_deg`` (the disc tilt's convention)."""
+    ax, ay = math.radians(ax_deg), math.radians(ay_deg)
+    rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
+    ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])
+    return ry @ rx
 
 
 @dataclass(frozen=True)
@@ -185,21 +203,41 @@ class Scene:
     @property
     def camera_rotation(self) -> NDArray[np.float64]:
         """Camera-to-world rotation (columns: image right, image up, backwards). A Pose offset
-        moves the camera sideways without turning it."""
-        return self.preset.camera.rotation()
+        moves the camera sideways without turning it; ``camera_rotation_deg`` turns it about its
+        own image axes."""
+        base = self.preset.camera.rotation()
+        if not self.pose.turns_camera:
+            return base
+        return base @ rotation_xy(*self.pose.camera_rotation_deg)
+
+    @property
+    def looks_straight_down(self) -> bool:
+        """The original geometry's camera: on-axis preset, not turned (rays need no rotation)."""
+        return self.preset.camera.is_on_axis and not self.pose.turns_camera
 
     @property
     def camera_look_at(self) -> NDArray[np.float64]:
-        """The world point on the optical axis the camera aims at (metres), offset moved too."""
+        """The world point on the optical axis the camera aims at (metres), offset moved too; a
+        turned camera aims where its optical axis now meets the preset aim point's height."""
         dx, dy = self.pose.camera_offset_mm
         x, y, z = self.preset.camera.look_at_mm
-        return np.array([x + dx, y + dy, z]) * 1e-3
+        aim = np.array([x + dx, y + dy, z]) * 1e-3
+        if not self.pose.turns_camera:
+            return aim
+        eye = self.camera_position
+        forward = -self.camera_rotation[:, 2]
+        if forward[2] >= -1e-9:
+            return eye + forward * float(np.linalg.norm(aim - eye))  # looks level or up: keep the distance
+        return eye + forward * ((aim[2] - eye[2]) / forward[2])
 
     @property
     def light_position(self) -> NDArray[np.float64]:
         dx, dy = self.pose.light_offset_mm
         x, y, z = self.preset.light.position_mm
-        return np.array([x + dx, y + dy, z]) * 1e-3
+        position = np.array([x + dx, y + dy, z]) * 1e-3
+        if self.pose.light_rotation_deg != (0.0, 0.0):
+            position = rotation_xy(*self.pose.light_rotation_deg) @ position  # about the disc centre (origin)
+        return position
 
     @property
     def disc_center(self) -> NDArray[np.float64]:
@@ -208,10 +246,7 @@ class Scene:
     @property
     def disc_rotation(self) -> NDArray[np.float64]:
         """Rotation of the disc (columns: its x, y and normal axes in the world), Rx then Ry."""
-        ax, ay = (math.radians(n + p) for n, p in zip(self.preset.disc_tilt_deg, self.pose.tilt_deg))
-        rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
-        ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])
-        return ry @ rx
+        return rotation_xy(*(n + p for n, p in zip(self.preset.disc_tilt_deg, self.pose.tilt_deg)))
 
     @property
     def disc_normal(self) -> NDArray[np.float64]:
@@ -232,9 +267,9 @@ class Scene:
         y = height / 2.0 - (rows + 0.5)
         d = np.stack([x, y, -np.full_like(x, f)], axis=-1)
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        if cam.is_on_axis:
+        if self.looks_straight_down:
             return d
-        return d @ cam.rotation().T
+        return d @ self.camera_rotation.T
 
     def intersect_disc(
         self, directions: NDArray[np.float64]
@@ -260,8 +295,8 @@ class Scene:
         cam = self.preset.camera
         width, height = cam.image_size_px
         rel = points - self.camera_position
-        if not cam.is_on_axis:
-            rel = rel @ cam.rotation()  # into the camera frame
+        if not self.looks_straight_down:
+            rel = rel @ self.camera_rotation  # into the camera frame
         scale = cam.focal_px / -rel[..., 2]
         cols = rel[..., 0] * scale + width / 2.0 - 0.5
         rows = height / 2.0 - 0.5 - rel[..., 1] * scale
@@ -291,6 +326,9 @@ class Scene:
             "camera_offset_mm": list(self.pose.camera_offset_mm),
             "light_offset_mm": list(self.pose.light_offset_mm),
             "tilt_deg": list(self.pose.tilt_deg),
+            **({"camera_rotation_deg": list(self.pose.camera_rotation_deg)} if self.pose.turns_camera else {}),
+            **({"light_rotation_deg": list(self.pose.light_rotation_deg)}
+               if self.pose.light_rotation_deg != (0.0, 0.0) else {}),
             **self._full_pose_dict(),
         }
 
@@ -299,7 +337,7 @@ class Scene:
         geometry, and the basis-cube cache keys hashed from it, unchanged)."""
         extra: dict[str, Any] = {}
         cam = self.preset.camera
-        if not cam.is_on_axis:
+        if not self.looks_straight_down:
             extra["camera_look_at_mm"] = (self.camera_look_at * 1e3).tolist()
             extra["camera_rotation"] = self.camera_rotation.tolist()
         if self.preset.disc_tilt_deg != (0.0, 0.0):

@@ -56,7 +56,7 @@ def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
     if rows is None or cols is None:
         rows = (index // width).astype(np.float64)
         cols = (index % width).astype(np.float64)
-    if scene.preset.camera.is_on_axis and np.allclose(scene.disc_normal, (0.0, 0.0, 1.0), rtol=0, atol=1e-15):
+    if scene.looks_straight_down and np.allclose(scene.disc_normal, (0.0, 0.0, 1.0), rtol=0, atol=1e-15):
         return _untilted(scene, index, rows, cols)
     dirs = scene.pixel_rays(rows, cols)
     points, hit = scene.intersect_disc(dirs)

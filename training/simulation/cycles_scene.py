@@ -151,7 +151,7 @@ def build_capture_scene(capture: Scene, samples: int, seed: int = 0) -> bpy.type
     cam_data.clip_start = 1e-3
     cam_data.clip_end = 100.0
     cam = bpy.data.objects.new("capture_camera", cam_data)
-    if preset.camera.is_on_axis:
+    if capture.looks_straight_down:
         cam.location = capture.camera_position.tolist()
         cam.rotation_euler = (0.0, 0.0, 0.0)  # looks down −z, image up = +y
     else:  # full pose: Blender's camera also looks down its own −z with +y up in the image

@@ -3,6 +3,7 @@
     python -m training.simulation.render_basis --preset cd-default --out data/basis/cd-default.exr
         [--size W [H]] [--samples N] [--engine cycles|numpy] [--seed N]
         [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y]
+        [--camera-rotation-deg X Y] [--light-rotation-deg X Y]
 
 Channels follow Fichet et al. (2021) (``S0.380,0nm`` …); the capture geometry goes to a JSON
 sidecar next to the file. Cycles renders three bands per render with the OSL grating shader.
@@ -18,7 +19,7 @@ from cd_spectra_addon.core.capture import DEFAULT_PRESET
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from training.simulation.basis import ENGINES, render_basis
-from training.simulation.render_photo import scene_from_args
+from training.simulation.render_photo import add_pose_arguments, scene_from_args
 from training.simulation.spectral_exr import write_spectral_exr
 
 
@@ -30,9 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--samples", type=int, help="Cycles samples per pixel (default: preset)")
     p.add_argument("--engine", choices=ENGINES, default="cycles")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--camera-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
-    p.add_argument("--light-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
-    p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
+    add_pose_arguments(p)
     args = p.parse_args(argv)
     try:
         scene = scene_from_args(args)

@@ -2,7 +2,8 @@
 
     python -m training.simulation.render_photo --spd SPD.csv --out DIR [--preset NAME]
         [--camera NAME|FILE.json] [--format exr|png|png16|jpg] [--noise F] [--exposure F]
-        [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y] [--seed N]
+        [--camera-offset-mm X Y] [--light-offset-mm X Y] [--tilt-deg X Y]
+        [--camera-rotation-deg X Y] [--light-rotation-deg X Y] [--seed N]
         [--camera-position-mm X Y Z] [--light-position-mm X Y Z]
         [--size W [H]] [--upsample K] [--engine cycles|numpy] [--samples N] [--cache-dir DIR]
     python -m training.simulation.render_photo --print-geometry [--preset NAME] [...pose options]
@@ -31,6 +32,18 @@ from training.simulation import photo
 from training.simulation.basis import CACHE_DIR, ENGINES, basis_cube
 
 
+def add_pose_arguments(p: argparse.ArgumentParser) -> None:
+    """The :class:`Pose` flags: what a person building the capture gets wrong."""
+    p.add_argument("--camera-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
+    p.add_argument("--light-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
+    p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="disc tilt about the x and y axes")
+    p.add_argument("--camera-rotation-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="camera turned about its image's horizontal and vertical axes (aimed off)")
+    p.add_argument("--light-rotation-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
+                   help="lamp swung about the disc centre, about the x and y axes")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m training.simulation.render_photo", description=__doc__.split("\n\n")[0])
     p.add_argument("--spd", type=Path, help="CSV: wavelength column, then one column per SPD")
@@ -41,10 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--noise", type=float, default=0.0, help="shot-noise std at full scale (0.01 = 1%%)")
     p.add_argument("--exposure", type=float, default=1.0,
                    help="multiplier on auto exposure (brightest pixel of the tracks at 80%% of full scale)")
-    p.add_argument("--camera-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
-    p.add_argument("--light-offset-mm", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"))
-    p.add_argument("--tilt-deg", type=float, nargs=2, default=(0.0, 0.0), metavar=("X", "Y"),
-                   help="disc tilt about the x and y axes")
+    add_pose_arguments(p)
     p.add_argument("--camera-position-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="put the camera here (above the disc, aimed at its centre) instead of the preset's place")
     p.add_argument("--light-position-mm", type=float, nargs=3, metavar=("X", "Y", "Z"),
@@ -76,7 +86,8 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         if len(args.size) > 2 or min(args.size) < 8 or max(args.size) > 8192:
             raise ValueError("--size takes a width and optional height between 8 and 8192")
         preset = preset.with_image_size(*args.size)
-    pose = Pose(tuple(args.camera_offset_mm), tuple(args.light_offset_mm), tuple(args.tilt_deg))
+    pose = Pose(tuple(args.camera_offset_mm), tuple(args.light_offset_mm), tuple(args.tilt_deg),
+                tuple(args.camera_rotation_deg), tuple(args.light_rotation_deg))
     return Scene(preset, pose)
 
 
