@@ -187,3 +187,17 @@ def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():
     chosen = [r["network"] for r in result["bands"]]
     assert chosen == [450 <= lo and hi <= 650 for lo, hi in BANDS_NM]
     assert result["blend"]["mae_380_780"] < min(result["network"]["mae_380_780"], result["prior"]["mae_380_780"])
+
+
+def test_heldout_family_groups_partition_the_physical_families_and_probes_predict_like_the_runtime():
+    from training.learning import heldout_families as hf
+    from training.learning.tune_fusion import TUNING_FAMILIES
+
+    flat = [f for g in hf.GROUPS for f in g]
+    assert len(flat) == len(set(flat)) and set(flat) == set(TUNING_FAMILIES) - {"filtered"}
+    torch_model = hf.TorchModel(train.SpectralNet((16,)), {"mean": [0.0] * 81, "covariance": [[0.0] * 81] * 81})
+    x = np.random.default_rng(0).random((3, INPUT_SIZE)).astype(np.float32)
+    spd, std = torch_model.predict(x)
+    one, one_std = torch_model.predict(x[0])
+    assert spd.shape == (3, 81) and one.shape == (81,) and np.allclose(spd[0], one) and np.allclose(std[0], one_std)
+    assert np.allclose(spd.max(axis=1), 1.0) and np.all(std > 0)

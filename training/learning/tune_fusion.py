@@ -77,7 +77,7 @@ def model_prior(model: SpectralModel) -> tuple[GaussianPrior, NDArray[np.float64
 
 
 def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int = SEED,
-           camera_error: bool = True) -> list[Case]:
+           camera_error: bool = True, families: tuple[str, ...] = TUNING_FAMILIES) -> list[Case]:
     """Photos of ``n`` prior spectra, one geometry after another; photos the product refuses
     (an oblique geometry before the general-pose fit reads it) are left out, as in training."""
     rng = np.random.default_rng(seed)
@@ -85,7 +85,7 @@ def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int =
     cams, _ = camera_split()
     deg = Degradation()
     specs = CUBE_SETS[cube_set]
-    spds, _ = sample_spds(n, rng, families=TUNING_FAMILIES)
+    spds, _ = sample_spds(n, rng, families=families)
     cases = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, spd in enumerate(spds):
@@ -164,26 +164,39 @@ def band_weight(network_bands: list[bool]) -> NDArray[np.float64]:
     return use[np.searchsorted(inner_edges, x, side="right")].mean(axis=1).round(4)
 
 
+def band_errors(cases: list[Case], strength: float, floor: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(network, physics + prior) MAE per photo and band, each SPD peak-normalised as the user
+    sees it: arrays (photos, bands)."""
+    sels = [(WAVELENGTHS_NM >= lo) & (WAVELENGTHS_NM <= hi) for lo, hi in BANDS_NM]
+    net, pri = [], []
+    for c in cases:
+        f, p = _peak1(_fused(c, strength, floor)), _peak1(c.physics)
+        net.append([np.mean(np.abs(f[s] - c.truth[s])) for s in sels])
+        pri.append([np.mean(np.abs(p[s] - c.truth[s])) for s in sels])
+    return np.array(net), np.array(pri)
+
+
+def band_rows(net: NDArray[np.float64], pri: NDArray[np.float64]) -> list[dict[str, Any]]:
+    """The decision per band from paired errors: the network only where it is better by more than
+    the standard error of the paired difference — physics + prior is the simpler estimate and the
+    default wherever the network's win is not clear."""
+    rows = []
+    for k, (lo, hi) in enumerate(BANDS_NM):
+        d = pri[:, k] - net[:, k]
+        se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
+        rows.append({"band": [lo, hi], "mae_network": float(np.mean(net[:, k])), "mae_prior": float(np.mean(pri[:, k])),
+                     "se": se, "network": bool(np.mean(d) > se)})
+    return rows
+
+
 def choose_bands(cases: list[Case], strength: float, floor: float) -> dict[str, Any]:
-    """Per band, the MAE of the fused network SPD and of physics + prior (each peak-normalised,
-    as the user would see it) on the same photos, and the choice: the network only where it is
-    better by more than the standard error of the paired difference — physics + prior is the
-    simpler estimate and the default wherever the network's win is not clear."""
+    """Per band, the MAE of the fused network SPD and of physics + prior on the same photos and
+    the choice (:func:`band_rows`), the weight it makes and how the blend does."""
+    rows = band_rows(*band_errors(cases, strength, floor))
+    weight = band_weight([r["network"] for r in rows])
     fused = [_peak1(_fused(c, strength, floor)) for c in cases]
     prior = [_peak1(c.physics) for c in cases]
     truth = [c.truth for c in cases]
-    rows, use = [], []
-    for lo, hi in BANDS_NM:
-        sel = (WAVELENGTHS_NM >= lo) & (WAVELENGTHS_NM <= hi)
-        a = np.array([np.mean(np.abs(f[sel] - t[sel])) for f, t in zip(fused, truth)])
-        b = np.array([np.mean(np.abs(p[sel] - t[sel])) for p, t in zip(prior, truth)])
-        d = b - a
-        se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
-        network = bool(np.mean(d) > se)
-        use.append(network)
-        rows.append({"band": [lo, hi], "mae_network": float(np.mean(a)), "mae_prior": float(np.mean(b)),
-                     "se": se, "network": network})
-    weight = band_weight(use)
     blended = [solve.band_blend(c.readout, c.matrix, _fused(c, strength, floor), c.physics, weight) for c in cases]
     for row in rows:
         lo, hi = row["band"]
