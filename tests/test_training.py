@@ -201,3 +201,18 @@ def test_heldout_family_groups_partition_the_physical_families_and_probes_predic
     one, one_std = torch_model.predict(x[0])
     assert spd.shape == (3, 81) and one.shape == (81,) and np.allclose(spd[0], one) and np.allclose(std[0], one_std)
     assert np.allclose(spd.max(axis=1), 1.0) and np.all(std > 0)
+
+
+def test_band_mae_scores_the_bands_the_camera_sees_at_their_own_peak():
+    """Inside 400–700 nm the bands are scored at the 400–700 nm peak (as MAE 400–700), so an
+    estimate that is right there but wrong in the red tail loses only in the tail band."""
+    from training.learning.tune_fusion import BANDS_NM, band_mae
+
+    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM as lam
+
+    truth = np.exp(-0.5 * ((lam - 760) / 60) ** 2) + 0.2  # peak in the red tail, like a tungsten lamp
+    estimate = np.where(lam > 700, truth * 0.4, truth)
+    errors = band_mae(estimate / estimate.max(), truth / truth.max())
+    inside = [lo >= 400 and hi <= 700 for lo, hi in BANDS_NM]
+    assert np.allclose(errors[inside], 0.0, atol=1e-12)
+    assert errors[-1] > 0.1

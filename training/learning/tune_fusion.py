@@ -164,15 +164,26 @@ def band_weight(network_bands: list[bool]) -> NDArray[np.float64]:
     return use[np.searchsorted(inner_edges, x, side="right")].mean(axis=1).round(4)
 
 
+def band_mae(estimate: NDArray[np.float64], truth: NDArray[np.float64]) -> NDArray[np.float64]:
+    """MAE per band as the headline metrics score it (``compare_spds``): inside 400–700 nm both
+    SPDs scaled to their peak inside 400–700 nm (MAE 400–700 is the mean of these bands), the
+    tails to their peak over 380–780 nm (as MAE 380–780) — so a tail the camera cannot see does
+    not decide a band it sees."""
+    core = (WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700)
+    out = []
+    for lo, hi in BANDS_NM:
+        sel = (WAVELENGTHS_NM >= lo) & (WAVELENGTHS_NM <= hi)
+        norm = core if (lo >= 400 and hi <= 700) else np.ones_like(core)
+        e = estimate / max(float(np.max(estimate[norm])), 1e-12)
+        t = truth / max(float(np.max(truth[norm])), 1e-12)
+        out.append(float(np.mean(np.abs(e[sel] - t[sel]))))
+    return np.array(out)
+
+
 def band_errors(cases: list[Case], strength: float, floor: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(network, physics + prior) MAE per photo and band, each SPD peak-normalised as the user
-    sees it: arrays (photos, bands)."""
-    sels = [(WAVELENGTHS_NM >= lo) & (WAVELENGTHS_NM <= hi) for lo, hi in BANDS_NM]
-    net, pri = [], []
-    for c in cases:
-        f, p = _peak1(_fused(c, strength, floor)), _peak1(c.physics)
-        net.append([np.mean(np.abs(f[s] - c.truth[s])) for s in sels])
-        pri.append([np.mean(np.abs(p[s] - c.truth[s])) for s in sels])
+    """(network, physics + prior) MAE per photo and band (:func:`band_mae`): arrays (photos, bands)."""
+    net = [band_mae(_peak1(_fused(c, strength, floor)), c.truth) for c in cases]
+    pri = [band_mae(_peak1(c.physics), c.truth) for c in cases]
     return np.array(net), np.array(pri)
 
 
@@ -196,12 +207,10 @@ def choose_bands(cases: list[Case], strength: float, floor: float) -> dict[str, 
     weight = band_weight([r["network"] for r in rows])
     fused = [_peak1(_fused(c, strength, floor)) for c in cases]
     prior = [_peak1(c.physics) for c in cases]
-    truth = [c.truth for c in cases]
     blended = [solve.band_blend(c.readout, c.matrix, _fused(c, strength, floor), c.physics, weight) for c in cases]
-    for row in rows:
-        lo, hi = row["band"]
-        sel = (WAVELENGTHS_NM >= lo) & (WAVELENGTHS_NM <= hi)
-        row["mae_blend"] = float(np.mean([np.mean(np.abs(e[sel] - t[sel])) for e, t in zip(blended, truth)]))
+    blend_err = np.array([band_mae(e, c.truth) for e, c in zip(blended, cases)])
+    for k, row in enumerate(rows):
+        row["mae_blend"] = float(np.mean(blend_err[:, k]))
     return {"bands": rows, "weight": weight.tolist(), "network": _score(fused, cases),
             "prior": _score(prior, cases), "blend": _score(blended, cases)}
 
@@ -249,8 +258,9 @@ def report(result: dict[str, Any]) -> str:
              "left out. Score = MAE 400–700 + MAE 380–780 + 10·Δu'v'. Strength 0 = the network's SPD as is. "
              "*Uncalibrated*: each camera differs from its published curves (±2 % gains, ±1 nm), as in training; "
              "*calibrated*: a calibration shot has removed that.", "",
-             "Then, per band, the fused network SPD against physics + prior alone (MAE of each peak-normalised "
-             "SPD on the band's samples, the same photos): the network is used only where it is better by more "
+             "Then, per band, the fused network SPD against physics + prior alone on the same photos (MAE on the "
+             "band's samples as the headline metrics scale them: inside 400–700 nm both SPDs at peak 1 inside "
+             "400–700 nm, the tails at peak 1 over 380–780 nm): the network is used only where it is better by more "
              "than the standard error of the paired difference; elsewhere the shipped estimate is physics + prior, "
              f"with linear {TRANSITION_NM:g} nm transitions (`fusion.band_weight` in the model's metadata; "
              "`core.solve.band_blend`). Real lamps play no part in any of these choices.", ""]
