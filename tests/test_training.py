@@ -35,11 +35,14 @@ def test_training_never_imports_the_measured_lamps():
 def test_smoke_model_trains_exports_and_loads(tmp_path):
     out = tmp_path / "model"
     code = train.main(["--set", "smoke", "--n-per-cube", "60", "--epochs", "2", "--engine", "numpy",
-                       "--workers", "1", "--out", str(out)])
+                       "--workers", "1", "--tune-photos", "6", "--out", str(out)])
     assert code == 0
     meta = json.loads((out / "cd_spectra.json").read_text())
     assert meta["onnx_parity_max_abs_diff"] <= 1e-5
     assert len(meta["prior"]["mean"]) == 81 and meta["cameras"]["held_out"]
+    weight = np.asarray(meta["fusion"]["band_weight"])  # the per-band choice is part of every build
+    assert weight.shape == (81,) and np.all((weight >= 0) & (weight <= 1))
+    assert len(meta["fusion"]["bands"]["calibrated"]) == 8
     model = load_model(out / "cd_spectra.onnx")
     x = np.random.default_rng(0).random((5, INPUT_SIZE)).astype(np.float32)
     spd, std = model.predict(x)
