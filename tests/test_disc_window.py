@@ -13,7 +13,8 @@ import pytest
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.capture import Scene, load_preset
-from cd_spectra_addon.core.disc_window import PREVIEW_SIDE, WINDOW_SIDE, disc_half_extent, load_for_estimate
+from cd_spectra_addon.core.disc_window import (DISC_MIN_PX, DISC_TARGET_PX, PREVIEW_SIDE, disc_half_extent,
+                                               load_for_estimate)
 from cd_spectra_addon.core.estimate import estimate_photo
 from cd_spectra_addon.core.images import load_photo
 from training.simulation import photo
@@ -53,8 +54,9 @@ def test_a_phone_photo_is_read_through_a_window_with_the_whole_rainbow_in_it(tmp
     path, preset, centre = _phone_photo(tmp_path)
     preview = load_photo(path, max_side=PREVIEW_SIDE)
     image = load_for_estimate(path, preset)
-    assert image.scale < preview.scale  # closer than the whole-frame read
-    assert max(image.rgb.shape[:2]) <= WINDOW_SIDE
+    _, _, diameter = disc_half_extent(preview, preset)
+    assert diameter < DISC_MIN_PX and image.scale < preview.scale  # a small disc is read closer...
+    assert 0.6 * DISC_TARGET_PX < diameter * preview.scale / image.scale < 1.5 * DISC_TARGET_PX  # ...about this close
     # Every bright pixel of the preview lies inside the window.
     lum = preview.rgb.sum(axis=2)
     rows, cols = np.nonzero(lum > 0.05 * lum.max())
@@ -90,7 +92,7 @@ def test_a_disc_that_fills_the_frame_is_read_whole(tmp_path):
 def test_the_window_reaches_a_disc_placed_off_the_frame_centre(tmp_path):
     path, preset, centre = _phone_photo(tmp_path, shift_px=(700, -300))
     preview = load_photo(path, max_side=PREVIEW_SIDE)
-    hx, hy = disc_half_extent(preview, preset)
+    hx, hy, _ = disc_half_extent(preview, preset)
     # The rainbow's far end is ~1.3 disc radii + 700 px from the centre: the bright pixels, not
     # the preset's rim, set the window.
     radius_px = preset.disc.rim_radius_mm / preset.camera.distance_mm * \
