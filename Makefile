@@ -22,7 +22,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_spectra_files.py tests/test_grating.py tests/test_spectral_grid.py \
 	tests/test_camera_files.py tests/test_camera_pipeline.py tests/test_images.py tests/test_export_formats.py \
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
-	tests/test_capture_pose.py tests/test_general_pose.py
+	tests/test_capture_pose.py tests/test_general_pose.py tests/test_disc_window.py
 
 .PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 

@@ -21,8 +21,9 @@ from .camera_pipeline import CameraPipeline, fit_pipeline
 from .cameras import GENERIC_CAMERA, CameraProfile
 from .capture import DEFAULT_PRESET, Preset, load_preset
 from .errors import CDSpectraError, NoDiscError
-from .estimate import AUTO, MAX_SIDE, resolve_camera
-from .images import LinearImage, load_photo
+from .disc_window import load_for_estimate
+from .estimate import AUTO, resolve_camera
+from .images import LinearImage
 from .model import load_model
 from .spectral_grid import WAVELENGTHS_NM
 
@@ -91,7 +92,7 @@ def measure_gains(path: str | Path, reference_spd: NDArray[np.float64], preset: 
     _check_reference(reference_spd)  # before the photo is read: the cheaper mistake first
     camera = camera or AUTO
     preset_obj = load_preset(preset)
-    image = load_photo(path, max_side=MAX_SIDE)
+    image = load_for_estimate(path, preset_obj)  # read as the later photos will be
     cam, generic, camera, _ = resolve_camera(camera, image, _model_if_needed(camera))
     gains, pipeline, analysis = fit_calibration(image, reference_spd, preset_obj, cam, generic)
     extra: dict[str, Any] = {"rainbow_contrast": float(analysis.fit.rainbow_contrast)}

@@ -27,7 +27,8 @@ from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_
 from .capture import DEFAULT_PRESET, Preset, load_preset
 from .capture_advice import lamp_advice, lamp_offset_mm, lamp_reach_mm
 from .errors import CDSpectraError, PhotoError
-from .images import LinearImage, load_photo
+from .disc_window import load_for_estimate
+from .images import LinearImage
 from .model import SpectralModel, load_model
 from .pose_fit import PoseFit
 from .readout import Readout
@@ -35,7 +36,6 @@ from .result import DiscFit, Estimate
 from .solve import GaussianPrior, band_blend, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
-MAX_SIDE = 1024
 AUTO = "auto"  # the camera profile from the photo's EXIF
 # The inverse assumes the camera looks straight at the disc's centre. With the disc off the
 # image centre (a cropped or re-aimed photo; bench/reliability.md) the physics-only MAE on
@@ -50,7 +50,7 @@ PROCESSED_CONFIDENCE = 0.5
 AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "AUTO", "estimate_image", "estimate_photo", "camera_for", "resolve_camera"]
+__all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "resolve_camera"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -303,7 +303,7 @@ def estimate_image(
     height, width = image.rgb.shape[:2]
     s = image.scale
     disc = DiscFit(
-        center_px=((fit.center_px[1] + 0.5) * s - 0.5, (fit.center_px[0] + 0.5) * s - 0.5),
+        center_px=image.to_original(*fit.center_px),
         radius_px=preset_obj.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
         hole_radius_px=preset_obj.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
         px_per_mm=focal_px / fit.distance_mm * s,
@@ -321,7 +321,7 @@ def estimate_image(
         working_space=working_space,
         extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
                "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
-               "ring_center_px": [(fit.ring_center_px[1] + 0.5) * s - 0.5, (fit.ring_center_px[0] + 0.5) * s - 0.5]},
+               "ring_center_px": list(image.to_original(*fit.ring_center_px))},
         wavelength_nm=WAVELENGTHS_NM.copy(),
     )
 
@@ -342,9 +342,10 @@ def estimate_photo(
     report = progress or (lambda _f, _m: None)
     report(0.0, "Reading the photo")
     t0 = time.perf_counter()
-    image = load_photo(path, max_side=MAX_SIDE)
+    preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
+    image = load_for_estimate(path, preset_obj)
     load_ms = (time.perf_counter() - t0) * 1e3
-    result = estimate_image(image, preset=preset, camera=camera, calibration=calibration,
+    result = estimate_image(image, preset=preset_obj, camera=camera, calibration=calibration,
                             working_space=working_space, model=model, progress=progress, method=method)
     result.timing_ms["load"] = load_ms
     result.timing_ms["total"] += load_ms
