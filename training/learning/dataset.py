@@ -134,9 +134,11 @@ CUBE_SETS: dict[str, list[CubeSpec]] = {
 # The buildable family (issue 10): the three set-ups a user can build, each with the pose errors a
 # person makes building it, lamps from a pinhole to bulb-sized (σ 0.001–0.01), and cd-default as
 # the reference. Rendered as the product reads them: a centred crop with the disc 0.9 of the side
-# (focal length × :func:`disc_fill_multiplier`), 512 px — a cube at the product's read size (disc
-# ≈ 900 px) gave the same features to 0.2–0.8 % and the same physics MAE (bench/cube_resolution.md)
-# at twice the dataset time, a 256 px one lost the thinnest streaks (MAE 0.015 vs 0.0097, σ 0.001).
+# (focal length × :func:`disc_fill_multiplier`), 512 px, so the disc is read at ~460 px — as the
+# estimator reads a real photo (its preview keeps a disc of ≥ 400 px, a smaller one is read through
+# a window at ~720 px: core/disc_window.py). A cube at 1024 px (disc ≈ 900 px) gave the same
+# features to 0.2–0.8 % and the same physics MAE (bench/cube_resolution.md) at twice the dataset
+# time; a 256 px one lost the thinnest streaks (MAE 0.015 vs 0.0097, σ 0.001).
 # Cycles at 8 samples per pixel: its readout is within 0.04 % of the converged twin's (16 spp:
 # 0.02 %, 4: 0.05 %; the photos' own noise is 0.2–3 %) at half the time of 16.
 BUILDABLE_SIZE = 512
@@ -399,8 +401,8 @@ def build_dataset(cube_set: str = SHIPPED_SET, n_per_cube: int = 2500, seed: int
             parts = pool.map(_run_cube, jobs, chunksize=1)
     else:
         parts = [_run_cube(job) for job in jobs]
-    log(f"{len(specs) * n_per_cube} samples in {time.perf_counter() - start:.0f} s")
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    log(f"{len(merged['inputs'])} samples kept of {len(specs) * n_per_cube} photos in {time.perf_counter() - start:.0f} s")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, **merged, key=key)
