@@ -88,7 +88,8 @@ def report(result: dict[str, Any], dataset: str) -> str:
              "", f"Synthetic only. Dataset `{dataset}` ({result['samples']} samples, `{result['cube_set']}` geometries); "
              f"per group, a probe network ({result['epochs']} epochs) trained without the group, fused with the photo at "
              f"its best strength, and physics + prior, on {result['n_photos']} photos of the held-out group's spectra "
-             "(refused photos left out). MAE per band of the peak-normalised SPD; *used*: the tuning rule (network only "
+             "(refused photos left out). MAE per band as bench/fusion_tuning.md scores it (inside 400–700 nm at the 400–700 "
+             "nm peak, the tails at the 380–780 nm peak); *used*: the tuning rule (network only "
              "where better by more than the paired standard error). `filtered` stays in training (its held-out bases leak "
              "in through it). A diagnostic of how the network does on kinds of lamp it never saw; the shipped weight "
              "comes from `tune_fusion` (bench/fusion_tuning.md).", ""]
