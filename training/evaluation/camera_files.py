@@ -15,8 +15,12 @@ photographed by a camera whose pixels are twice the cube's per side and written 
   camera→sRGB matrix +10 % saturation, 25 % S-curve), and three random renderings sampled
   within what cameras and phones do — without calibration, with per-bin gains only, and with
   the fitted pipeline; each calibration is one shot of CIE A (a household bulb) taken the same way;
-* the generic profile instead of the matched one, and cameras outside the training set
-  (held-out profiles; the file's EXIF names a camera we do not have, so "auto" picks generic).
+* the generic profile instead of the matched one, cameras outside the training set (held-out
+  profiles; the file's EXIF names a camera we do not have, so "auto" picks generic), and four
+  cameras unlike the 52 (``external_cameras/``: a phone, a phone-sized compact, a machine-vision
+  CCD and a Foveon sensor; evaluation only) — each without calibration, with the old per-bin
+  gains and with what ``calibrate`` now does for the generic profile: fit the camera's own
+  sensitivities (:mod:`cd_spectra_addon.core.camera_fit`), then gains.
 
 Everything goes through ``load_photo`` → ``estimate_image`` (camera "auto" unless stated):
 the product's path. All figures are from the simulator.
@@ -41,7 +45,7 @@ from cd_spectra_addon.core.calibration_shot import fit_calibration
 from cd_spectra_addon.core.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-from cd_spectra_addon.core.estimate import estimate_image, resolve_camera
+from cd_spectra_addon.core.estimate import camera_prior_for, estimate_image, resolve_camera
 from cd_spectra_addon.core.images import LinearImage, load_photo
 from cd_spectra_addon.core.model import load_model
 
@@ -50,13 +54,19 @@ from training.evaluation.lamps import Lamp, lspdd_lamps
 from training.learning.dataset import camera_split
 from training.simulation import photo
 from training.simulation.basis import REPO
-from training.simulation.camera_pipelines import TYPICAL, in_camera_exif, pipeline_for, render_in_camera, sample_style
+from training.simulation.camera_pipelines import (TYPICAL, InCameraStyle, in_camera_exif, pipeline_for, render_in_camera,
+                                                  sample_style)
 from training.simulation.dng import dng_bytes, mosaic
 from training.simulation.render_numpy import render_cube
 
 UPSAMPLE = 2
 NOISE = 0.01
 UNKNOWN_CAMERA = "Apple_iPhone 15 Pro"  # EXIF of a camera without a profile
+# Cameras unlike the 52 (evaluation only, never trained on; licences in each file): a phone, a
+# phone-sized compact sensor, a machine-vision CCD and a Foveon stacked sensor.
+EXTERNAL_DIR = Path(__file__).resolve().parent / "external_cameras"
+EXTERNAL_CAMERAS = [str(EXTERNAL_DIR / f"{n}.json") for n in
+                    ("Nokia_N900", "Pentax_Q", "Point_Grey_Grasshopper2_14S5C", "Sigma_SD_Merrill")]
 
 __all__ = ["main"]
 
@@ -66,9 +76,12 @@ class Row:
     label: str
     fmt: str  # exr, tiff16, dng, jpg, heic
     rendering: str = "none"  # "none" (camera-native), "typical" or "random"
-    calibration: str = "none"  # "none", "gains" or "pipeline"
+    # "none"; "gains": per-bin gains only; "camera": what `calibrate` does with a raw file (the
+    # camera's sensitivities fitted when its profile is the generic one, then gains);
+    # "pipeline": the same for an in-camera file, the camera's processing fitted first
+    calibration: str = "none"
     camera: str = DEFAULT_CAMERA  # the camera that took the photo ("held-out": a held-out profile)
-    profile: str = "auto"  # what the estimate uses
+    profile: str = "auto"  # what the estimate uses ("own": the camera's own profile, named by hand)
 
 
 ROWS = [
@@ -83,9 +96,20 @@ ROWS = [
     Row("phone HEIC (8-bit)", "heic", "typical"),
     Row("… + CIE A calibration, pipeline + gains", "heic", "typical", "pipeline"),
     Row("DNG, generic profile", "dng", profile=GENERIC_CAMERA),
-    Row("DNG, generic profile + CIE A calibration", "dng", calibration="gains", profile=GENERIC_CAMERA),
+    Row("DNG, generic profile + CIE A calibration (gains only, the old way)", "dng", calibration="gains",
+        profile=GENERIC_CAMERA),
+    Row("DNG, generic profile + CIE A calibration (fitted camera + gains)", "dng", calibration="camera",
+        profile=GENERIC_CAMERA),
+    Row("DNG, held-out camera, its own profile named by hand", "dng", camera="held-out", profile="own"),
     Row("DNG, held-out camera (EXIF unknown → generic)", "dng", camera="held-out"),
-    Row("… + CIE A calibration", "dng", calibration="gains", camera="held-out"),
+    Row("… + CIE A calibration (gains only, the old way)", "dng", calibration="gains", camera="held-out"),
+    Row("… + CIE A calibration (fitted camera + gains)", "dng", calibration="camera", camera="held-out"),
+    Row("DNG, camera outside the 52 (phone, compact, machine vision, Foveon), its own profile by hand", "dng",
+        camera="external", profile="own"),
+    Row("DNG, camera outside the 52 (EXIF unknown → generic)", "dng", camera="external"),
+    Row("… + CIE A calibration (fitted camera + gains)", "dng", calibration="camera", camera="external"),
+    Row("phone HEIC, camera outside the 52 (EXIF unknown → generic) + CIE A calibration", "heic", "typical",
+        "pipeline", camera="external"),
 ]
 
 
@@ -129,46 +153,54 @@ class _Shooter:
         return load_photo(path, max_side=self.max_side)
 
 
-def _camera(row: Row, index: int, held: list[str]) -> tuple[CameraProfile, str]:
-    """(the camera that took the photo, the name its EXIF gives)."""
+def _camera(row: Row, index: int, held: list[str]) -> tuple[CameraProfile, str, str]:
+    """(the camera that took the photo, the name its EXIF gives, the profile that names it)."""
     if row.camera == "held-out":
-        return load_camera(held[index % len(held)]), UNKNOWN_CAMERA
-    return load_camera(row.camera), row.camera
+        name = held[index % len(held)]
+        return load_camera(name), UNKNOWN_CAMERA, name
+    if row.camera == "external":
+        path = EXTERNAL_CAMERAS[index % len(EXTERNAL_CAMERAS)]
+        return load_camera(path), UNKNOWN_CAMERA, path
+    return load_camera(row.camera), row.camera, row.camera
 
 
-def _pipelines(row: Row, camera: CameraProfile, n_lamps: int) -> list[CameraPipeline | None]:
+def _styles(row: Row, n_lamps: int) -> list[InCameraStyle | None]:
     """One rendering per lamp group: the typical one, or three random ones (seeded)."""
     if row.rendering == "none":
         return [None] * n_lamps
     if row.rendering == "typical":
-        return [pipeline_for(camera, TYPICAL)] * n_lamps
+        return [TYPICAL] * n_lamps
     rng = np.random.default_rng(2024)
-    styles = [pipeline_for(camera, sample_style(rng)) for _ in range(3)]
+    styles = [sample_style(rng) for _ in range(3)]
     return [styles[i % 3] for i in range(n_lamps)]
 
 
 def run_row(shooter: _Shooter, row: Row, lamps: list[Lamp], model: Any, held: list[str]) -> dict[str, Any]:
     preset = shooter.scene.preset
-    pipelines = _pipelines(row, load_camera(DEFAULT_CAMERA), len(lamps))
-    calibrations: dict[tuple[int, str], Calibration] = {}
+    styles = _styles(row, len(lamps))
+    calibrations: dict[tuple[InCameraStyle | None, str], Calibration] = {}
     rows, seconds = [], []
     ref = known_lamp_spd("incandescent")
     for i, lamp in enumerate(lamps):
-        camera, exif_name = _camera(row, i, held)
-        pipeline = pipelines[i]
+        camera, exif_name, own = _camera(row, i, held)
+        profile_name = own if row.profile == "own" else row.profile
+        style = styles[i]
+        pipeline = None if style is None else pipeline_for(camera, style)  # the camera's own colour matrix
         cal = None
         if row.calibration != "none":
-            key = (id(pipeline), camera.name)
+            key = (style, camera.name)
             if key not in calibrations:
                 shot = shooter.shoot(row, ref, camera, exif_name, pipeline, seed=99 + i, tag="calibration")
-                profile, generic, name, _ = resolve_camera(row.profile, shot, model)
-                gains, fitted, _ = fit_calibration(shot, ref, preset, profile, generic,
-                                                   pipeline=row.calibration == "pipeline")
-                calibrations[key] = Calibration("eval", gains, preset.name, name, new_metadata("eval", "CIE A"), fitted)
+                profile, generic, name, _ = resolve_camera(profile_name, shot, model)
+                prior = camera_prior_for(model) if generic and row.calibration != "gains" else None
+                calibrations[key], _ = fit_calibration(shot, ref, preset, profile, generic,
+                                                       pipeline=row.calibration == "pipeline", prior=prior,
+                                                       name="eval", metadata=new_metadata("eval", "CIE A"))
             cal = calibrations[key]
         image = shooter.shoot(row, lamp.spd, camera, exif_name, pipeline, seed=1000 + i, tag="photo")
         t0 = time.perf_counter()
-        est = estimate_image(image, preset=preset, camera=row.profile, calibration=cal, model=model)
+        est = estimate_image(image, preset=preset, camera=profile_name,
+                             calibration=cal, model=model)
         seconds.append(time.perf_counter() - t0)
         rows.append({**_metrics(est.spd, lamp.spd), "confidence": est.confidence, "lamp": lamp.name,
                      "camera": est.camera, "processed": image.processed})
