@@ -51,7 +51,8 @@ PROCESSED_CONFIDENCE = 0.5
 AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera"]
+__all__ = ["MAX_SIDE", "AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
+           "solving_camera"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -69,6 +70,17 @@ def camera_prior_for(model: SpectralModel | None) -> CameraPrior:
     cameras = (model.metadata.get("cameras") or {}) if model is not None else {}
     names = [n for n in cameras.get("train", []) if n in camera_names()] if isinstance(cameras, dict) else []
     return camera_prior(names or camera_names())
+
+
+def solving_camera(camera: CameraProfile, generic: bool, calibration: Calibration | None
+                   ) -> tuple[CameraProfile, bool]:
+    """The sensitivities a photo is solved with, and whether to call them generic: a calibration
+    that measured the camera's own sensitivities replaces the profile, and the network is told
+    the camera is known (generic + calibration, 30 synthetic SPDs of the training prior,
+    `camera_files --synthetic`: MAE 0.016 told "known", 0.023 told "generic")."""
+    if calibration is None or calibration.sensitivities is None:
+        return camera, generic
+    return CameraProfile(camera.name, calibration.sensitivities), False
 
 
 def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
@@ -243,10 +255,8 @@ def estimate_image(
     cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
     cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
     if cal is not None and cal.sensitivities is not None:
-        # The calibration measured this camera's own sensitivities: solve with them, and tell the
-        # network the camera is known (generic + calibration, 30 synthetic SPDs of the training
-        # prior, `camera_files --synthetic`: MAE 0.016 told "known", 0.023 told "generic").
-        cam, generic, camera_note = CameraProfile(cam.name, cal.sensitivities), False, None
+        cam, generic = solving_camera(cam, generic, cal)
+        camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
     report(0.2, "Finding the disc")
     analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
     readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
