@@ -30,8 +30,8 @@ from .model import load_model
 from .spectral_grid import WAVELENGTHS_NM
 
 # In-camera file of a camera without a profile: rounds of (processing, sensitivities). Phone HEIC
-# of cameras outside the 52, 30 synthetic SPDs (`camera_files --synthetic`): MAE 0.118 / 0.087 /
-# 0.075 / 0.064 / 0.059 after 1 / 3 / 5 / 8 / 16 rounds; ~0.1 s a round for a 192-px photo.
+# of cameras unlike the 52, 30 synthetic SPDs (`camera_files --synthetic`): MAE 0.133 / 0.081 /
+# 0.076 / 0.070 / 0.076 after 1 / 3 / 5 / 8 / 16 rounds; ~0.1 s a round for a 192-px photo.
 PIPELINE_CAMERA_ROUNDS = 8
 
 __all__ = ["fit_calibration", "gains_from_image", "measure_calibration", "calibrate_photo"]
