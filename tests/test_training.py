@@ -219,3 +219,25 @@ def test_band_mae_scores_the_bands_the_camera_sees_at_their_own_peak():
     inside = [lo >= 400 and hi <= 700 for lo, hi in BANDS_NM]
     assert np.allclose(errors[inside], 0.0, atol=1e-12)
     assert errors[-1] > 0.1
+
+
+def test_in_camera_photos_join_the_dataset_without_disturbing_the_rest():
+    """A share of in-camera JPEG/HEIC photos, each read with its camera's CIE A calibration (the
+    generic ones with fitted sensitivities); the other samples stay exactly what they were."""
+    spec = dataset.CUBE_SETS["smoke"][0]
+    train_cams, _ = dataset.camera_split()
+
+    def run(share: float) -> dict:
+        deg = dataset.Degradation(in_camera=share, in_camera_setups=3, generic_probability=0.5)
+        return dataset._run_cube(dataset._CubeJob(spec, 16, 3, train_cams, deg, "numpy", None, 1))
+
+    plain, mixed = run(0.0), run(0.5)
+    assert plain["inputs"].shape[0] == mixed["inputs"].shape[0] == 16  # nothing refused: rows align
+    in_camera = mixed["meta"][:, 4] > 0
+    assert 3 <= in_camera.sum() <= 13 and not np.any(plain["meta"][:, 4])
+    assert np.all(mixed["meta"][in_camera, 0] == -1) and np.any(mixed["meta"][in_camera, 3] == 1)  # generic ones too
+    np.testing.assert_array_equal(plain["inputs"][~in_camera], mixed["inputs"][~in_camera])
+    assert np.all(np.isfinite(mixed["inputs"])) and not np.allclose(plain["inputs"][in_camera],
+                                                                   mixed["inputs"][in_camera])
+    generic_flag = mixed["inputs"][:, INPUT_SIZE - 2]  # the scalars' generic-camera flag
+    assert np.all(generic_flag[in_camera] == 0)  # calibrated: the camera counts as known

@@ -23,6 +23,7 @@ from . import colour
 from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
+from .camera_fit import CameraPrior, camera_prior
 from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from .capture import DEFAULT_PRESET, Preset, load_preset
 from .capture_advice import lamp_advice, lamp_offset_mm, lamp_reach_mm
@@ -50,7 +51,8 @@ PROCESSED_CONFIDENCE = 0.5
 AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
-__all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "resolve_camera"]
+__all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
+           "solving_camera"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -60,6 +62,25 @@ def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, b
             raise CDSpectraError("the generic camera profile comes with the model, which is not available")
         return CameraProfile(GENERIC_CAMERA, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
     return load_camera(name), False
+
+
+def camera_prior_for(model: SpectralModel | None) -> CameraPrior:
+    """The prior over camera sensitivities whose mean is ``model``'s generic profile: its
+    training cameras (all shipped profiles without a model that names them)."""
+    cameras = (model.metadata.get("cameras") or {}) if model is not None else {}
+    names = [n for n in cameras.get("train", []) if n in camera_names()] if isinstance(cameras, dict) else []
+    return camera_prior(names or camera_names())
+
+
+def solving_camera(camera: CameraProfile, generic: bool, calibration: Calibration | None
+                   ) -> tuple[CameraProfile, bool]:
+    """The sensitivities a photo is solved with, and whether to call them generic: a calibration
+    that measured the camera's own sensitivities replaces the profile, and the network is told
+    the camera is known (generic + calibration, 30 synthetic SPDs of the training prior,
+    `camera_files --synthetic`: MAE 0.016 told "known", 0.023 told "generic")."""
+    if calibration is None or calibration.sensitivities is None:
+        return camera, generic
+    return CameraProfile(camera.name, calibration.sensitivities), False
 
 
 def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
@@ -241,6 +262,9 @@ def estimate_image(
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
     cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
     cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+    if cal is not None and cal.sensitivities is not None:
+        cam, generic = solving_camera(cam, generic, cal)
+        camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
     report(0.2, "Finding the disc")
     analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
     readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px

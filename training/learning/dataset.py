@@ -5,7 +5,11 @@ A handful of capture geometries is rendered once each with Cycles (basis cubes, 
 random SPD from the prior, a random training camera (with unit-to-unit gain and wavelength
 errors), random exposure (some clipping), noise, ambient light and file encoding (EXR, 16-bit
 PNG, 8-bit PNG, JPEG at several qualities), written to disk and read back by
-``core.images.load_photo`` — exactly what a user's photo goes through. The profile is taken at
+``core.images.load_photo`` — exactly what a user's photo goes through. A share of the photos
+is rendered *in camera* (white balance, colour matrix with gamut clipping, tone curve, 8-bit
+JPEG or HEIC; :mod:`training.simulation.camera_pipelines`, randomised within what cameras and
+phones do) and read with a calibration made the product's way from a CIE A shot of the same
+capture, camera and settings — in-camera files are only estimated after calibration. The profile is taken at
 geometries the pose fit actually produced on photos of that cube (its real errors) and the
 physics solve runs with the camera profile a user would pick (the named camera, or "generic").
 """
@@ -25,21 +29,29 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.calibration import Calibration
+from cd_spectra_addon.core.calibration_shot import fit_calibration
+from cd_spectra_addon.core.camera_fit import camera_prior
+from cd_spectra_addon.core.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Preset, Scene, load_preset
 from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
+from cd_spectra_addon.core.estimate import solving_camera
+from cd_spectra_addon.core.illuminants import known_lamp_spd
 from cd_spectra_addon.core.images import LinearImage, load_photo
 from cd_spectra_addon.core.model import INPUT_SIZE
 from cd_spectra_addon.core.pose_fit import PoseFit
 from cd_spectra_addon.core.solve import GaussianPrior
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
-from training.simulation import photo
+from training.simulation import camera_pipelines, photo
 from training.simulation.basis import REPO, basis_cube
+from training.simulation.camera_pipelines import in_camera_exif, pipeline_for, render_in_camera, sample_style
 from training.learning.spd_prior import gaussian_prior, sample_spds
 
 DATA_DIR = REPO / "data" / "dataset"
+CALIBRATION_LAMP = known_lamp_spd("incandescent")  # what users are told to calibrate with: a household bulb
 
 __all__ = ["CubeSpec", "CUBE_SETS", "camera_split", "generic_sensitivities", "build_dataset", "Degradation"]
 
@@ -224,6 +236,12 @@ class Degradation:
     shift_error_nm: float = 1.0  # wavelength shift of the curve (std)
     generic_probability: float = 0.2
     upsample: int = 2  # photo pixels per cube pixel; the loader reduces it back (see photo.upsample)
+    # In-camera JPEG/HEIC photos (share of all), each read with a CIE A calibration of its camera
+    # and rendering; a geometry draws them from `in_camera_setups` (camera × rendering × file
+    # type) so the calibration shots stay few. 0 reproduces a dataset without them exactly.
+    in_camera: float = 0.15
+    in_camera_formats: tuple[tuple[str, float], ...] = (("jpg", 0.6), ("heic", 0.4))
+    in_camera_setups: int = 4
 
 
 def _perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degradation) -> CameraProfile:
@@ -292,16 +310,65 @@ def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generato
 
 
 def sample_features(loaded: LinearImage, preset: Preset, camera: CameraProfile, generic: bool, fit: PoseFit | None,
-                    pixels: PixelDiffraction | None, prior: tuple[GaussianPrior, NDArray[np.float64]]
+                    pixels: PixelDiffraction | None, prior: tuple[GaussianPrior, NDArray[np.float64]],
+                    calibration: Calibration | None = None
                     ) -> tuple[NDArray[np.float32], NDArray[np.float64]] | None:
     """One training sample's network inputs and physics SPD through the product's own inverse path
-    (``prepare`` → ``physics_spd`` → ``network_inputs``), or None where the product refuses the photo."""
+    (``prepare`` → ``physics_spd`` → ``network_inputs``, with the calibration's camera as
+    :func:`~cd_spectra_addon.core.estimate.estimate_image` takes it), or None where the product
+    refuses the photo."""
+    camera, generic = solving_camera(camera, generic, calibration)
     try:
-        analysis = prepare(loaded, preset, camera, generic_camera=generic, fit=fit, pixels=pixels)
+        analysis = prepare(loaded, preset, camera, generic_camera=generic, fit=fit, pixels=pixels,
+                           calibration=calibration)
     except CDSpectraError:
         return None
     e_phys = physics_spd(analysis, prior)
     return network_inputs(analysis, e_phys), e_phys
+
+
+@dataclass
+class _InCameraSetup:
+    """One camera × rendering × file type of a geometry, with its calibration (None: the product
+    refused the calibration shot, so photos taken this way teach nothing)."""
+
+    camera: CameraProfile  # the profile a user would name
+    unit: CameraProfile  # the unit that takes the photos (its own small errors)
+    pipeline: CameraPipeline
+    fmt: str
+    generic: bool
+    calibration: Calibration | None
+
+
+def _in_camera_photo(native: NDArray[np.float64], setup: _InCameraSetup, meter: NDArray[np.bool_], deg: Degradation,
+                     quality: int, tmpdir: str, exif: bytes, max_side: int) -> LinearImage:
+    """The in-camera file of a camera-native photo (upsampled, with noise), as loaded."""
+    rendered = render_in_camera(native, setup.pipeline, photo.upsample(meter, deg.upsample).astype(bool))
+    return _write_and_load(rendered, setup.fmt, quality, tmpdir, in_camera_exif(exif), max_side)
+
+
+def _new_in_camera_setup(rng: np.random.Generator, cube: NDArray[np.float32], meter: NDArray[np.bool_],
+                         preset: Preset, cameras: list[str], generic: NDArray[np.float64], deg: Degradation,
+                         tmpdir: str, exif_for_camera, max_side: int) -> _InCameraSetup:
+    """Draw a camera, a rendering and a file type; take and calibrate the CIE A shot the product's way."""
+    camera = load_camera(cameras[int(rng.integers(len(cameras)))])
+    unit = _perturbed_camera(camera, rng, deg)
+    names = [f for f, _ in deg.in_camera_formats]
+    probs = np.array([w for _, w in deg.in_camera_formats], dtype=np.float64)
+    fmt = names[int(rng.choice(len(names), p=probs / probs.sum()))]
+    use_generic = bool(rng.random() < deg.generic_probability)
+    setup = _InCameraSetup(camera, unit, pipeline_for(camera, sample_style(rng)), fmt, use_generic, None)
+    shot, _ = photo.expose(photo.linear_photo(cube, CALIBRATION_LAMP, unit), 1.0, meter)
+    shot = np.minimum(photo.add_noise(photo.upsample(shot, deg.upsample), float(np.mean(deg.noise)), rng), 1.0)
+    loaded = _in_camera_photo(shot, setup, meter, deg, deg.jpeg_quality[1], tmpdir, exif_for_camera(camera.name),
+                              max_side)
+    solve = CameraProfile(GENERIC_CAMERA, generic) if use_generic else camera
+    try:
+        setup.calibration, _ = fit_calibration(loaded, CALIBRATION_LAMP, preset, solve, use_generic, pipeline=True,
+                                               prior=camera_prior(cameras) if use_generic else None)
+    except CDSpectraError:
+        pass
+    return setup
 
 
 def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
@@ -320,11 +387,18 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
     refused = np.zeros(job.n_samples, dtype=bool)
     inputs = np.zeros((job.n_samples, INPUT_SIZE), dtype=np.float32)
     physics = np.zeros((job.n_samples, 81), dtype=np.float32)
-    meta = np.zeros((job.n_samples, 4), dtype=np.float32)  # format index, noise, exposure, generic
+    meta = np.zeros((job.n_samples, 5), dtype=np.float32)  # format index, noise, exposure, generic, in camera
     fmt_names = [f for f, _ in job.deg.formats]
     fmt_p = np.array([p for _, p in job.deg.formats])
     fmt_p /= fmt_p.sum()
     deg = job.deg
+    # In-camera photos draw from their own generator, so in_camera = 0 leaves every other draw as it was.
+    rng_in_camera = np.random.default_rng([job.seed, 11])
+    setups: list[_InCameraSetup] = []
+
+    def exif_for_camera(name: str) -> bytes:
+        return photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * deg.upsample, name)
+
     with tempfile.TemporaryDirectory() as tmp:
         variants = _variants(spec, cube, rng, job.n_fits, job.cameras, tmp)
         for i, spd in enumerate(spds):
@@ -335,6 +409,14 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             true_cam = _perturbed_camera(camera, rng, deg)
             exposure = math.exp(rng.uniform(math.log(deg.exposure[0]), math.log(deg.exposure[1])))
             noise = rng.uniform(*deg.noise)
+            setup = None
+            if deg.in_camera > 0 and rng_in_camera.random() < deg.in_camera:
+                slot = int(rng_in_camera.integers(deg.in_camera_setups))
+                while len(setups) <= slot:
+                    setups.append(_new_in_camera_setup(rng_in_camera, cube, meter, preset, job.cameras, generic, deg,
+                                                       tmp, exif_for_camera, max(cam.image_size_px)))
+                setup = setups[slot]
+                camera, true_cam, exposure = setup.camera, setup.unit, 1.0  # the camera meters its own rendering
             image, _ = photo.expose(photo.linear_photo(cube, spd, true_cam), exposure, meter)
             image = photo.upsample(image, deg.upsample)
             if rng.random() < deg.ambient_probability:
@@ -342,21 +424,29 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
             image = np.minimum(photo.add_noise(image, noise, rng), 1.0)
             k = int(rng.choice(len(fmt_names), p=fmt_p))
             quality = int(rng.integers(deg.jpeg_quality[0], deg.jpeg_quality[1] + 1))
-            exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * deg.upsample,
-                                  camera.name)
-            loaded = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
+            exif = exif_for_camera(camera.name)
             variant = variants[int(rng.integers(len(variants)))]
             use_generic = rng.random() < deg.generic_probability
+            calibration = None
+            if setup is not None:
+                if setup.calibration is None:
+                    refused[i] = True  # its calibration shot was refused: the product cannot read these
+                    continue
+                loaded = _in_camera_photo(image, setup, meter, deg, quality, tmp, exif, max(cam.image_size_px))
+                use_generic, calibration = setup.generic, setup.calibration
+            else:
+                loaded = _write_and_load(image, fmt_names[k], quality, tmp, exif, max(cam.image_size_px))
             solve_camera = CameraProfile(GENERIC_CAMERA, generic) if use_generic else camera
             features = sample_features(loaded, preset, solve_camera, use_generic, variant.fit, variant.pixels,
-                                       (prior, precision))
+                                       (prior, precision), calibration)
             if features is None:
                 refused[i] = True  # the product would refuse this photo: it teaches nothing
                 continue
             inputs[i], e_phys = features
             peak = float(e_phys.max())
             physics[i] = e_phys / peak if peak > 0 else 0.0
-            meta[i] = (k, noise, exposure, float(use_generic))
+            in_camera = 0.0 if setup is None else 1.0 + [f for f, _ in deg.in_camera_formats].index(setup.fmt)
+            meta[i] = (-1 if setup is not None else k, noise, exposure, float(use_generic), in_camera)
     keep = ~refused
     print(f"  cube {spec.name}: {int(keep.sum())} samples ({int(refused.sum())} refused by the estimator"
           f"{', given up' if refused.all() else ''})", flush=True)
@@ -369,7 +459,7 @@ def dataset_key(cube_set: str, n_per_cube: int, seed: int, engine: str, deg: Deg
     # The samples go through the product's own inverse path: a change anywhere in the core (a pose
     # fit that reads oblique photos, a new readout) makes a new dataset, not a stale cached one.
     core = sorted((Path(__file__).resolve().parents[2] / "cd_spectra_addon" / "core").glob("*.py"))
-    code = b"".join(Path(p).read_bytes() for p in (__file__, photo.__file__, *core))
+    code = b"".join(Path(p).read_bytes() for p in (__file__, photo.__file__, camera_pipelines.__file__, *core))
     blob = json.dumps({"set": [asdict(c) for c in CUBE_SETS[cube_set]], "n": n_per_cube, "seed": seed,
                        "engine": engine, "deg": asdict(deg), "held": held, "input": INPUT_SIZE},
                       sort_keys=True, default=str).encode() + code
