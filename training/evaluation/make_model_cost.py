@@ -4,7 +4,7 @@
 
 Times one Cycles cube of the buildable set (rendered afresh into a temporary cache) and ``--photos``
 training photos of one near-axis cube through the dataset's own per-cube job in one process, then
-projects the whole build (17 cubes; 1200 photos per geometry read by 2 workers; 60 epochs and the
+projects the whole build (17 cubes; 1000 photos per geometry read by 2 workers; 60 epochs and the
 fusion tuning at the pilot's measured rates). Run it on an otherwise idle machine: the load
 average is printed with the numbers.
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 from training.learning import dataset as ds
 from training.simulation.basis import REPO, basis_cube
 
-N_PER_CUBE = 1200
+N_PER_CUBE = 1000
 READ_NOW, ALL = 11, 17  # geometries the estimator reads today / once oblique photos are read
 EPOCHS = 60
 TUNE_S = 2 * 139.0  # the pilot's fusion tuning at 48 photos per case, ×2 for 96 (bench/buildable_pilot.md)

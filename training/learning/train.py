@@ -205,8 +205,8 @@ def write_json(path: Path, payload: dict[str, Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--set", default=SHIPPED_SET, choices=sorted(CUBE_SETS))
-    parser.add_argument("--n-per-cube", type=int, default=1200,
-                        help="photos per geometry (buildable: 11 read today × 1200, 17 × 1200 once oblique photos are read)")
+    parser.add_argument("--n-per-cube", type=int, default=1000,
+                        help="photos per geometry (buildable: 11 read today × 1000, 17 × 1000 once oblique photos are read)")
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))
