@@ -25,7 +25,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_capture_pose.py tests/test_general_pose.py tests/test_disc_window.py tests/test_camera_fit.py \
 	tests/test_jpeg_chroma.py
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -75,10 +75,17 @@ sample-photo: setup
 		--noise 0.005 --format jpg --seed 1
 	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 
-# Rebuild models/ from nothing (Cycles basis cubes, dataset, training, ONNX export), seeded.
+# Rebuild models/ from nothing (Cycles basis cubes of the buildable set-ups, dataset, training, ONNX
+# export, fusion and per-band choice on synthetic photos), seeded; about an hour on 2 cores.
 model: setup
-	$(PY) -m training.simulation.render_cubes --set full --engine cycles
-	$(PY) -m training.learning.train --set full
+	$(PY) -m training.simulation.render_cubes --set buildable --engine cycles
+	$(PY) -m training.learning.train --set buildable
+
+# Re-choose the fusion and, per band, network vs physics + prior for the model in models/ (synthetic
+# photos of the geometries it was trained on; no retraining), then the real-lamp check of that choice.
+tune-fusion: setup
+	$(PY) -m training.learning.tune_fusion --write
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.band_choice_real --out bench/band_choice_real.md
 
 eval: setup eval-camera-files eval-poses
 	$(PY) -m training.evaluation.evaluate --out bench/eval.md

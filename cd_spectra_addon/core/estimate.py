@@ -34,7 +34,7 @@ from .model import SpectralModel, load_model
 from .pose_fit import PoseFit
 from .readout import Readout
 from .result import DiscFit, Estimate
-from .solve import GaussianPrior, fused_solve
+from .solve import GaussianPrior, band_blend, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
 AUTO = "auto"  # the camera profile from the photo's EXIF
@@ -124,6 +124,14 @@ def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, floa
     if calibrated and "calibrated_strength" in f:
         return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
     return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
+
+
+def _band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.float64] | None:
+    """w(λ) of the network against physics + prior (1 = network), chosen per band on synthetic
+    photos when the model was built; None (the network everywhere) for a model without one."""
+    f = model.metadata.get("fusion") or {}
+    w = f.get("calibrated_band_weight") if calibrated and "calibrated_band_weight" in f else f.get("band_weight")
+    return None if w is None else np.asarray(w, dtype=np.float64)
 
 
 def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -272,6 +280,9 @@ def estimate_image(
         net, std = mdl.predict(x)
         strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
         spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
+        weight = _band_weight(mdl, calibrated=cal is not None)
+        if weight is not None and np.any(weight < 1.0):
+            spd = band_blend(readout, matrix, spd, e_phys, weight)
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
     spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
