@@ -35,7 +35,8 @@ def test_training_never_imports_the_measured_lamps():
 def test_smoke_model_trains_exports_and_loads(tmp_path):
     out = tmp_path / "model"
     code = train.main(["--set", "smoke", "--n-per-cube", "60", "--epochs", "2", "--engine", "numpy",
-                       "--workers", "1", "--tune-photos", "6", "--out", str(out)])
+                       "--workers", "1", "--tune-photos", "6", "--unseen-epochs", "1", "--unseen-photos", "3",
+                       "--out", str(out)])
     assert code == 0
     meta = json.loads((out / "cd_spectra.json").read_text())
     assert meta["onnx_parity_max_abs_diff"] <= 1e-5
@@ -43,6 +44,7 @@ def test_smoke_model_trains_exports_and_loads(tmp_path):
     weight = np.asarray(meta["fusion"]["band_weight"])  # the per-band choice is part of every build
     assert weight.shape == (81,) and np.all((weight >= 0) & (weight <= 1))
     assert len(meta["fusion"]["bands"]["calibrated"]) == 8
+    assert all("network_unseen" in row for row in meta["fusion"]["bands"]["uncalibrated"])  # held-out-family rule
     model = load_model(out / "cd_spectra.onnx")
     x = np.random.default_rng(0).random((5, INPUT_SIZE)).astype(np.float32)
     spd, std = model.predict(x)
@@ -190,6 +192,14 @@ def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():
     chosen = [r["network"] for r in result["bands"]]
     assert chosen == [450 <= lo and hi <= 650 for lo, hi in BANDS_NM]
     assert result["blend"]["mae_380_780"] < min(result["network"]["mae_380_780"], result["prior"]["mae_380_780"])
+    # A band the network wins on its training families but loses on kinds it never saw goes to
+    # physics + prior: the network is used only where it wins both.
+    unseen = [{"network": not (500 <= lo and hi <= 550)} for lo, hi in BANDS_NM]
+    strict = choose_bands(cases, strength=0.0, floor=0.02, unseen=unseen)
+    assert [r["network"] for r in strict["bands"]] == [450 <= lo and hi <= 650 and lo != 500 for lo, hi in BANDS_NM]
+    assert [r["network_unseen"] for r in strict["bands"]] == [u["network"] for u in unseen]
+    weight = np.asarray(strict["weight"])
+    assert weight[(lam >= 515) & (lam <= 535)].max() == 0.0 and weight[(lam >= 560) & (lam <= 590)].min() == 1.0
 
 
 def test_heldout_family_groups_partition_the_physical_families_and_probes_predict_like_the_runtime():

@@ -217,6 +217,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="weight of the u'v' colour term in the loss (0 = shape only)")
     parser.add_argument("--tune-photos", type=int, default=96,
                         help="synthetic photos per case for the fusion and per-band choice (refused ones are left out)")
+    parser.add_argument("--unseen-epochs", type=int, default=30,
+                        help="epochs of each held-out-family probe (0: choose bands on the training families only)")
+    parser.add_argument("--unseen-photos", type=int, default=48, help="photos of each held-out family group")
     parser.add_argument("--fusion-report", type=Path, default=None,
                         help="where the fusion tables go (default: bench/fusion_tuning.md for the shipped set in models/)")
     parser.add_argument("--out", type=Path, default=REPO / "models")
@@ -261,11 +264,21 @@ def main(argv: list[str] | None = None) -> int:
     # How far the final solve trusts the network: chosen on synthetic photos, stored with it.
     # …and, per band, whether the network beats physics + prior at all (else physics + prior ships there).
     t_tune = time.perf_counter()
-    fusion = tune(load_model(onnx_path), args.set, args.tune_photos, args.engine)
+    unseen = None
+    shipped = args.set == SHIPPED_SET and args.out.resolve() == (REPO / "models").resolve()
+    if args.unseen_epochs > 0:
+        from training.learning import heldout_families  # it trains through this module
+
+        probes = heldout_families.run(data, args.set, args.unseen_epochs, args.unseen_photos, args.engine)
+        unseen = probes["pooled"]
+        if shipped:
+            text = heldout_families.report(probes, path.name)
+            (REPO / "bench" / "heldout_families.md").write_text(text, encoding="utf-8")
+    fusion = tune(load_model(onnx_path), args.set, args.tune_photos, args.engine, unseen)
     metadata["training"]["tune_seconds"] = time.perf_counter() - t_tune
     metadata["fusion"] = fusion_metadata(fusion)
     fusion_report = args.fusion_report
-    if fusion_report is None and args.set == SHIPPED_SET and args.out.resolve() == (REPO / "models").resolve():
+    if fusion_report is None and shipped:
         fusion_report = REPO / "bench" / "fusion_tuning.md"
     if fusion_report is not None:
         fusion_report.write_text(report(fusion), encoding="utf-8")
