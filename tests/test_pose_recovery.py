@@ -199,3 +199,28 @@ def test_the_general_fit_never_returns_nan(image, name):
                                         saturated=image.max(axis=2) >= 1.0)
     assert np.all(np.isfinite([*fit.center_px, fit.lobe_sigma, fit.residual, fit.null_residual, fit.distance_mm]))
     assert 0.0 <= fit.rainbow_contrast <= 1.0
+
+
+def test_the_fit_evaluates_the_same_diffraction_as_the_inverse():
+    """ray_diffraction (the fit's fast path, in the camera frame) and pixel_diffraction (what the
+    readout and forward matrix use) give every pixel the same λ₁, amplitude and radius."""
+    for name in ("cd-default", "tripod-oblique", "phone-distant-lamp"):
+        scene = Scene(load_preset(name).with_image_size(96), ERRORS)
+        rel = relative_pose.relative_pose(scene)
+        px = pixel_diffraction(scene)
+        rays = relative_pose.pixel_rays(px.index, (96, 96), scene.preset.camera.focal_px)
+        fast = relative_pose.ray_diffraction(rays, rel, scene.preset.disc.pitch_um)
+        assert np.all(fast.hit)
+        assert np.max(np.abs(fast.lambda1_nm - px.lambda1_nm)) < 1e-6
+        assert np.allclose(fast.amplitude, px.amplitude, rtol=1e-9, atol=1e-12)
+        assert np.allclose(fast.radius_mm, px.radius_mm, atol=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(arrays(np.float64, 60, elements=st.floats(1.0, 10.0)), arrays(np.float64, 59, elements=st.floats(-0.45, 0.45)),
+       arrays(np.float64, (60, 3), elements=st.floats(-5.0, 5.0)))
+def test_the_tridiagonal_solve_matches_a_dense_one(diag, off, rhs):
+    """The Thomas solve of the profile's normal equations equals numpy's dense solve (diagonally
+    dominant systems, as the normal equations of shared pixel weights are)."""
+    dense = np.diag(diag) + np.diag(off, 1) + np.diag(off, -1)
+    assert np.allclose(profile_residuals.solve_tridiagonal(diag, off, rhs), np.linalg.solve(dense, rhs), atol=1e-9)

@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 
 from .spectral_grid import WAVELENGTHS_NM
 
-COLOUR_BAND_NM = (400.0, 750.0)  # λ where only the first order shows (as pose_fit's colour check)
+COLOUR_BAND_NM = (400.0, 750.0)  # λ₁ where only the first order shows (as pose_fit's colour check)
+SECOND_ORDER_NM = (800.0, 1140.0)  # λ₁ where only the second order of 400–570 nm shows (the third starts at 1140)
 TAPER_NM = 10.0
 
 __all__ = ["ProfileGrid", "profile_residuals", "solve_tridiagonal"]
@@ -52,42 +53,53 @@ class ProfileGrid:
     def with_camera(cls, lo_nm: float, hi_nm: float, step_nm: float, sensitivities: NDArray[np.float64] | None,
                     blur_nm: float, colour_weight: float = 1.0) -> "ProfileGrid":
         """A grid whose nodes carry the camera's unit colour at their λ (blurred by the lobe and
-        the pixel, Gaussian std ``blur_nm``), free outside COLOUR_BAND_NM."""
+        the pixel, Gaussian std ``blur_nm``) within COLOUR_BAND_NM, and at λ/2 where only the
+        second order shows (SECOND_ORDER_NM); free elsewhere. Without the second order's colour
+        a streak could be explained as second order with any colour (a fit 290 nm off won)."""
         grid = cls(lo_nm, hi_nm, step_nm, colour_weight=colour_weight)
         if sensitivities is not None:
             nodes = grid.nodes_nm
-            s = max(float(blur_nm), 1.0, 0.5 * step_nm)
-            kernel = np.exp(-0.5 * ((nodes[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
+            first = (nodes >= COLOUR_BAND_NM[0]) & (nodes <= COLOUR_BAND_NM[1])
+            second = (nodes >= SECOND_ORDER_NM[0]) & (nodes <= SECOND_ORDER_NM[1])
+            lam = np.where(second, nodes / 2.0, nodes)
+            blur = np.where(second, blur_nm / 2.0, blur_nm)
+            s = np.maximum(np.maximum(blur, 1.0), 0.5 * step_nm)[:, None]
+            kernel = np.exp(-0.5 * ((lam[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
             rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
             norm = np.linalg.norm(rgb, axis=1, keepdims=True)
             colour = np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
-            colour[(nodes < COLOUR_BAND_NM[0]) | (nodes > COLOUR_BAND_NM[1])] = np.nan
+            colour[~(first | second)] = np.nan
             grid.colour = colour
         return grid
 
 
 def solve_tridiagonal(diag: NDArray[np.float64], off: NDArray[np.float64], rhs: NDArray[np.float64]
                       ) -> NDArray[np.float64]:
-    """Solve the symmetric tridiagonal system (main ``diag``, sub/super ``off``) for each column of
-    ``rhs`` (Thomas algorithm on Python floats: faster than numpy for a few hundred nodes)."""
+    """Solve the symmetric tridiagonal system (main ``diag``, sub/super ``off``) for the three
+    columns of ``rhs`` (Thomas algorithm on Python floats: for a few hundred nodes faster than any
+    numpy formulation; the pose fit solves one per evaluation)."""
     n = diag.size
-    d = diag.tolist()
-    o = off.tolist()
-    cols = rhs.shape[1]
-    r = [rhs[:, c].tolist() for c in range(cols)]
+    d, o = diag.tolist(), off.tolist()
+    r0, r1, r2 = (rhs[:, c].tolist() for c in range(3))
     cp = [0.0] * n
+    prev_c = prev0 = prev1 = prev2 = 0.0
+    prev_o = 0.0
     for i in range(n):
-        denom = d[i] - (o[i - 1] * cp[i - 1] if i > 0 else 0.0)
+        denom = d[i] - prev_o * prev_c
+        prev0 = (r0[i] - prev_o * prev0) / denom
+        prev1 = (r1[i] - prev_o * prev1) / denom
+        prev2 = (r2[i] - prev_o * prev2) / denom
+        r0[i], r1[i], r2[i] = prev0, prev1, prev2
         if i < n - 1:
-            cp[i] = o[i] / denom
-        for c in range(cols):
-            rc = r[c]
-            rc[i] = (rc[i] - (o[i - 1] * rc[i - 1] if i > 0 else 0.0)) / denom
-    for c in range(cols):
-        rc = r[c]
-        for i in range(n - 2, -1, -1):
-            rc[i] -= cp[i] * rc[i + 1]
-    return np.array(r).T
+            prev_o = o[i]
+            prev_c = prev_o / denom
+            cp[i] = prev_c
+    for i in range(n - 2, -1, -1):
+        c = cp[i]
+        r0[i] -= c * r0[i + 1]
+        r1[i] -= c * r1[i + 1]
+        r2[i] -= c * r2[i + 1]
+    return np.array([r0, r1, r2]).T
 
 
 def profile_residuals(values: NDArray[np.float64], lambda1_nm: NDArray[np.float64],
@@ -112,7 +124,11 @@ def profile_residuals(values: NDArray[np.float64], lambda1_nm: NDArray[np.float6
     rhs = np.stack([np.bincount(k0i, weights=w0 * v[:, c], minlength=n)
                     + np.bincount(k0i + 1, weights=w1 * v[:, c], minlength=n) for c in range(3)], axis=1)
     scale = float(np.max(diag)) if diag.size and np.max(diag) > 0 else 1.0
-    profile = solve_tridiagonal(diag + ridge * scale, off, rhs)
+    profile = np.zeros((n, 3))
+    used = np.flatnonzero(diag > 0)
+    if used.size:  # nodes outside the used range hold nothing: P = 0 there, and the solve is shorter
+        lo, hi = int(used[0]), int(used[-1]) + 1
+        profile[lo:hi] = solve_tridiagonal(diag[lo:hi] + ridge * scale, off[lo:hi - 1], rhs[lo:hi])
     pred = w0[:, None] * profile[k0i] + w1[:, None] * profile[k0i + 1]
     out = [(v - pred).ravel()]
     if grid.colour is not None:
