@@ -24,12 +24,13 @@ from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
 from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
-from .capture import DEFAULT_PRESET, Preset, load_preset
-from .capture_advice import coverage_advice
+from .capture import DEFAULT_PRESET, Preset, Scene, load_preset
+from .capture_advice import capture_angles, coverage_advice
+from .colour_check import wavelength_shift_nm
 from .errors import CDSpectraError, PhotoError
 from .images import LinearImage, load_photo
 from .model import SpectralModel, load_model
-from .pose_fit import PoseFit
+from .pose_fit import PoseFit, colour_blur_nm
 from .readout import Readout
 from .result import DiscFit, Estimate
 from .solve import GaussianPrior, fused_solve
@@ -44,6 +45,16 @@ AUTO = "auto"  # the camera profile from the photo's EXIF
 # Beyond a few degrees the photo is flagged and its confidence falls to the floor.
 AIM_OK_DEG = 4.0
 AIM_SPAN_DEG = 3.0
+# The wavelength axis against the camera's own colours (colour_check): on synthetic spectra at
+# the true pose |shift| stayed below 2.1 nm (99th percentile, 192 photos of the four set-ups);
+# a pose 0.3° off read 3-17 nm.
+COLOUR_SHIFT_OK_NM = 2.5
+COLOUR_SHIFT_SPAN_NM = 7.5
+# Camera or lamp angle from the disc's axis this far from the preset's (a tilted disc moves both):
+# up to 3° the fit recovers the spectrum (bench/pose_errors.md); at 5° of tilt it failed on the
+# near-axis set-ups (MAE ×10) with every other check passing.
+POSE_OK_DEG = 3.5
+POSE_SPAN_DEG = 4.0
 # An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
 PROCESSED_CONFIDENCE = 0.5
 # An offset this large (share of full scale) is worth telling: it costs 8-bit levels and may
@@ -143,6 +154,23 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         residual = 1.0
     stats = {"profile_residual": residual, "coverage_400_700": coverage, "saturated_bins": sat_core,
              "geometry_residual": float(analysis.fit.residual)}
+    blur = colour_blur_nm(analysis.scene.preset, analysis.scene.preset.light.lobe_sigma, analysis.focal_px)
+    shift = wavelength_shift_nm(readout, analysis.camera.sensitivities, blur)
+    stats["colour_shift_nm"] = math.nan if shift is None else shift
+    if shift is not None and abs(shift) > COLOUR_SHIFT_OK_NM:
+        warnings.append(f"the rainbow's colours put its wavelengths {abs(shift):.0f} nm {'below' if shift > 0 else 'above'} "
+                        "where the fitted capture does (a green pixel cannot be 620 nm): the pose or the camera profile "
+                        "is off — check the camera choice, and that the set-up matches the preset")
+        score *= max(0.3, 1.0 - (abs(shift) - COLOUR_SHIFT_OK_NM) / COLOUR_SHIFT_SPAN_NM)
+    fitted, nominal = capture_angles(analysis.scene), capture_angles(Scene(preset))
+    departure = max(abs(fitted[0] - nominal[0]), abs(fitted[1] - nominal[1]))
+    stats["pose_departure_deg"] = departure
+    if departure > POSE_OK_DEG:
+        warnings.append(f"the photo was taken about {departure:.0f}° away from the set-up's angles (camera "
+                        f"{fitted[0]:.0f}°, lamp {fitted[1]:.0f}° from the disc's axis; preset {nominal[0]:.0f}° and "
+                        f"{nominal[1]:.0f}°, a tilted disc counts too): the fit covers that, but less surely — "
+                        "lay the disc flat and place camera and lamp as the preset says")
+        score *= max(0.4, 1.0 - (departure - POSE_OK_DEG) / POSE_SPAN_DEG)
     if sat_core > 0.02:
         warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
         score *= max(0.2, 1.0 - 2.0 * sat_core)
