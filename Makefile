@@ -15,16 +15,17 @@ VENV313 := .venv313
 PY313 := $(VENV313)/bin/python
 STAMP313 := $(VENV313)/.installed-$(shell cat requirements-py313.txt | md5sum | cut -c1-8)
 # What runs under Python 3.13 / bpy 5.2: the installed extension (install, estimate, light, undo,
-# unregister), the packaging rules, the CLI, camera files (rawpy, pillow-heif), the planner and the
-# numpy core. Training (torch) stays on 3.11.
+# unregister), the packaging rules, the CLI, camera files (rawpy, pillow-heif, 4:2:2 JPEGs, fitted camera
+# sensitivities), the planner and the numpy core. Training (torch) stays on 3.11.
 TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py tests/test_cli.py tests/test_cli_commands.py \
 	tests/test_colour.py tests/test_working_space.py tests/test_estimate.py tests/test_inverse_core.py \
 	tests/test_spectra_files.py tests/test_grating.py tests/test_spectral_grid.py \
 	tests/test_camera_files.py tests/test_camera_pipeline.py tests/test_images.py tests/test_export_formats.py \
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
-	tests/test_capture_pose.py tests/test_general_pose.py
+	tests/test_capture_pose.py tests/test_general_pose.py tests/test_disc_window.py tests/test_camera_fit.py \
+	tests/test_jpeg_chroma.py
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -74,10 +75,17 @@ sample-photo: setup
 		--noise 0.005 --format jpg --seed 1
 	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 
-# Rebuild models/ from nothing (Cycles basis cubes, dataset, training, ONNX export), seeded.
+# Rebuild models/ from nothing (Cycles basis cubes of the buildable set-ups, dataset, training, ONNX
+# export, fusion and per-band choice on synthetic photos), seeded; about an hour on 2 cores.
 model: setup
-	$(PY) -m training.simulation.render_cubes --set full --engine cycles
-	$(PY) -m training.learning.train --set full
+	$(PY) -m training.simulation.render_cubes --set buildable --engine cycles
+	$(PY) -m training.learning.train --set buildable
+
+# Re-choose the fusion and, per band, network vs physics + prior for the model in models/ (synthetic
+# photos of the geometries it was trained on; no retraining), then the real-lamp check of that choice.
+tune-fusion: setup
+	$(PY) -m training.learning.tune_fusion --write
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.band_choice_real --out bench/band_choice_real.md
 
 eval: setup eval-camera-files eval-poses
 	$(PY) -m training.evaluation.evaluate --out bench/eval.md

@@ -140,3 +140,66 @@ def test_calibrated_photos_use_their_own_fusion_strength():
     assert _fusion(model) == (0.3, 0.05)
     assert _fusion(model, calibrated=True) == (3.0, 0.02)
     assert _fusion(SimpleNamespace(metadata={}), calibrated=True) == (0.0, 0.05)  # no fusion: the network as is
+
+
+def _model_copy(tmp_path, fusion_update):
+    onnx = tmp_path / "cd_spectra.onnx"
+    shutil.copy(SHIPPED, onnx)
+    meta = json.loads(SHIPPED.with_suffix(".json").read_text())
+    meta["fusion"] = {**meta.get("fusion", {}), **fusion_update}
+    onnx.with_suffix(".json").write_text(json.dumps(meta))
+    return onnx
+
+
+@pytest.mark.parametrize("bad", [[0.5] * 80, [1.5] * 81, ["x"] * 81, [float("nan")] * 81])
+def test_a_band_weight_that_is_not_81_numbers_in_0_to_1_is_refused(tmp_path, bad):
+    with pytest.raises(ModelError, match="band_weight"):
+        load_model(_model_copy(tmp_path, {"band_weight": bad}))
+
+
+def test_band_weight_picks_network_or_physics_per_wavelength(tmp_path, capture):
+    """w = 1 everywhere is the network's fused SPD, w = 0 everywhere is physics + prior exactly;
+    a weight that is 0 below 500 nm takes that part from physics + prior and keeps the rest from the
+    network, peak 1, no negative values."""
+    path = _write(tmp_path, capture, _warm_led())
+    prior_only = estimate_photo(path, model=SHIPPED, method="prior")
+    models = {}
+    for name, w in (("ones", np.ones(81)), ("zeros", np.zeros(81)), ("half", (WAVELENGTHS_NM >= 500) * 1.0)):
+        (tmp_path / name).mkdir()
+        models[name] = _model_copy(tmp_path / name, {"band_weight": w.tolist(), "calibrated_band_weight": w.tolist()})
+    ones = estimate_photo(path, model=models["ones"])
+    (tmp_path / "none").mkdir()
+    meta = json.loads(SHIPPED.with_suffix(".json").read_text())
+    plain_model = _model_copy(tmp_path / "none", {})
+    fusion = {k: v for k, v in meta.get("fusion", {}).items() if "band_weight" not in k}
+    plain_model.with_suffix(".json").write_text(json.dumps({**meta, "fusion": fusion}))
+    assert np.array_equal(ones.spd, estimate_photo(path, model=plain_model).spd)  # as before band weights
+    zeros = estimate_photo(path, model=models["zeros"])
+    assert np.allclose(zeros.spd, prior_only.spd, atol=1e-12)
+    half = estimate_photo(path, model=models["half"])
+    assert half.spd.max() == 1.0 and half.spd.min() >= 0 and np.all(np.isfinite(half.spd))
+    lo, hi = WAVELENGTHS_NM < 500, WAVELENGTHS_NM >= 500
+    # Each part has the shape of its source (up to the common scale the blend sets).
+    for part, src in ((lo, prior_only.spd), (hi, ones.spd)):
+        ratio = half.spd[part] / np.where(src[part] > 1e-6, src[part], np.nan)
+        ratio = ratio[np.isfinite(ratio)]
+        assert np.ptp(ratio) < 1e-9 * ratio.max() + 1e-12
+
+
+def test_band_blend_puts_both_estimates_at_the_photos_brightness():
+    """Two estimates that both reproduce the photo join without a jump, whatever their peaks."""
+    from cd_spectra_addon.core.readout import Readout
+    from cd_spectra_addon.core.solve import band_blend
+
+    rng = np.random.default_rng(3)
+    matrix = rng.random((40, 3, 81))
+    truth = _warm_led()
+    values = np.einsum("bcl,l->bc", matrix, truth)
+    readout = Readout(lambda_nm=np.linspace(380, 780, 40), values=values, weight=np.ones(40),
+                      saturated_fraction=np.zeros(40), valid=np.ones(40, dtype=bool), noise=np.full((40, 3), 1e-3),
+                      pixels=None, pixel_bin=np.zeros(0, dtype=int), pixel_weight=np.zeros(0))
+    learned = truth * 7.0  # photo units, any scale
+    physics = truth / truth.max() * 0.01
+    w = np.clip((WAVELENGTHS_NM - 500) / 40, 0, 1)
+    out = band_blend(readout, matrix, learned, physics, w)
+    assert np.allclose(out, truth / truth.max(), atol=1e-9)

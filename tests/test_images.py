@@ -451,6 +451,59 @@ def test_orientation_matches_pillow_exif_transpose(tmp_path, orientation):
     np.testing.assert_allclose(li.rgb, box_mean(expected, 2), atol=1e-6)
 
 
+@pytest.mark.parametrize("orientation", range(1, 9))
+@pytest.mark.parametrize("half, max_side", [((30, 20), 1024), ((30, 20), 16), ((50, 40), 32), ((500, 500), 1024)])
+def test_a_centred_window_is_the_same_pixels_as_the_whole_photo_there(tmp_path, orientation, half, max_side):
+    """load_photo(centre_crop_px=...) keeps the whole photo's pixels (and box means) inside a
+    window around the displayed photo's centre, whatever the EXIF orientation, and says where."""
+    exif = Image.Exif()
+    exif[0x0112] = orientation
+    path = put(tmp_path / "w.png", pil_bytes(CODES8, "PNG", exif=exif.tobytes()))
+    whole = load_photo(path, max_side=4096)
+    window = load_photo(path, max_side=max_side, centre_crop_px=half)
+    height, width = whole.rgb.shape[:2]
+    assert window.displayed_size == (width, height)
+    k = int(window.scale)
+    assert window.rgb.shape[0] * k <= min(2 * half[1], height) and window.rgb.shape[1] * k <= min(2 * half[0], width)
+    assert max(window.rgb.shape[:2]) <= max_side
+    x0, y0 = window.origin_px
+    assert float(x0).is_integer() and float(y0).is_integer()
+    # Centred on the displayed photo's centre to within one block.
+    cx = x0 + window.rgb.shape[1] * k / 2.0
+    cy = y0 + window.rgb.shape[0] * k / 2.0
+    assert abs(cx - width / 2.0) <= k and abs(cy - height / 2.0) <= k
+    h, w = window.rgb.shape[:2]
+    expected = box_mean(whole.rgb[int(y0): int(y0) + h * k, int(x0): int(x0) + w * k], k)
+    np.testing.assert_allclose(window.rgb, expected, atol=1e-6)
+    assert window.to_original(0.0, 0.0) == (x0 + (k - 1) / 2.0, y0 + (k - 1) / 2.0)
+
+
+def test_a_centred_window_of_a_jpeg_and_a_raw_file(tmp_path):
+    """JPEG (DCT-domain draft) and camera raw (binned Bayer) windows read the same light as the
+    whole photo does there, and a window bigger than the photo is the whole photo."""
+    from training.simulation.dng import dng_bytes
+
+    rgb = np.clip(RNG.random((160, 240, 3)) * 0.8, 0, 1)
+    jpg = put(tmp_path / "w.jpg", encode_photo(rgb, "jpg", None, 98))
+    dng = put(tmp_path / "w.dng", dng_bytes(rgb, seed=None))
+    for path in (jpg, dng):
+        whole = load_photo(path, max_side=4096)
+        window = load_photo(path, max_side=4096, centre_crop_px=(60, 30))
+        k = int(window.scale / whole.scale)
+        x0, y0 = (int(v / whole.scale) for v in window.origin_px)
+        h, w = window.rgb.shape[:2]
+        np.testing.assert_allclose(window.rgb, box_mean(whole.rgb[y0: y0 + h * k, x0: x0 + w * k], k), atol=2e-3)
+        big = load_photo(path, max_side=4096, centre_crop_px=(1000, 1000))
+        assert big.rgb.shape == whole.rgb.shape and big.origin_px == (0.0, 0.0)
+
+
+@pytest.mark.parametrize("bad", [(0, 10), (10, float("nan")), (5,), "big", (10, -3)])
+def test_a_bad_window_is_refused(tmp_path, bad):
+    path = put(tmp_path / "w.png", pil_bytes(CODES8, "PNG"))
+    with pytest.raises(ValueError, match="centre_crop_px"):
+        load_photo(path, centre_crop_px=bad)
+
+
 def test_tiff_orientation(tmp_path):
     li = load_photo(put(tmp_path / "o.tif", tiff(CODES16, orientation=6)))
     np.testing.assert_allclose(li.rgb, np.rot90(CODES16 / 65535.0, -1), atol=1e-7)

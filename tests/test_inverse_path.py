@@ -95,3 +95,42 @@ def test_a_photo_the_product_refuses_is_not_a_training_sample(tmp_path, capture)
         estimate_image(image, preset=preset, fit=fit)
     assert sample_features(image, preset, CameraProfile(cam.name, cam.sensitivities), False, fit, None,
                            _prior(load_model())) is None
+
+
+@pytest.mark.parametrize("camera", [DEFAULT_CAMERA, "generic"])
+def test_calibrated_in_camera_photo_gives_training_and_product_the_same_features(tmp_path, capture, camera):
+    """An in-camera JPEG read with a CIE A calibration (its processing, and for the generic
+    profile the camera's fitted sensitivities): the dataset and the estimator agree bit for bit."""
+    from cd_spectra_addon.core.calibration_shot import fit_calibration
+    from cd_spectra_addon.core.estimate import camera_prior_for
+    from cd_spectra_addon.core.illuminants import known_lamp_spd
+    from training.simulation.camera_pipelines import TYPICAL, in_camera_exif, pipeline_for, render_in_camera
+
+    scene, cube, meter = capture
+    pipe = pipeline_for(load_camera(DEFAULT_CAMERA), TYPICAL)
+
+    def shoot(spd, name):
+        img, _ = photo.expose(photo.linear_photo(cube, spd, load_camera(DEFAULT_CAMERA)), 0.9, meter)
+        img = render_in_camera(np.minimum(photo.add_noise(img, 0.01, np.random.default_rng(5)), 1.0), pipe, meter)
+        c = scene.preset.camera
+        path = tmp_path / f"{name}.jpg"
+        photo.write_photo(path, img, "jpg", in_camera_exif(photo.exif_for(
+            c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0], "Apple_iPhone 15 Pro")))
+        return load_photo(path)
+
+    preset = load_preset("cd-default").with_image_size(256)
+    model = _RecordingModel(load_model())
+    cam, generic = camera_for(camera, model)
+    ref = known_lamp_spd("incandescent")
+    cal, _ = fit_calibration(shoot(ref, "cal"), ref, preset, cam, generic,
+                             prior=camera_prior_for(model) if generic else None)
+    assert cal.pipeline is not None and (cal.sensitivities is not None) == generic
+    image = shoot(_lamp(), "photo")
+    assert image.processed
+    fit = fit_pose(np.asarray(image.rgb, dtype=np.float64), preset, scene.preset.camera.focal_px)
+    features = sample_features(image, preset, cam, generic, fit, None, _prior(model), cal)
+    result = estimate_image(image, preset=preset, camera=camera, calibration=cal, model=model, fit=fit)
+    assert features is not None and len(model.seen) == 1
+    assert np.array_equal(model.seen[0], features[0])
+    assert np.allclose(result.extra["physics_spd"], features[1] / features[1].max(), rtol=0, atol=1e-12)
+    assert features[0][INPUT_SIZE - 2] == 0.0  # calibrated: the network is told the camera is known

@@ -255,6 +255,39 @@ def test_high_pressure_sodium_is_self_reversed_at_589_nm():
     assert np.mean(reversed_) > 0.8
 
 
+def _local_peak_in(spds: np.ndarray, lo: float, hi: float, floor: float = 0.05) -> np.ndarray:
+    """Rows with a local maximum (≥ ``floor`` of the peak) on a grid sample in [lo, hi] nm."""
+    i = np.arange(_idx(lo), _idx(hi) + 1)
+    peak = (spds[:, i] >= spds[:, i - 1]) & (spds[:, i] >= spds[:, i + 1]) & (spds[:, i] > floor)
+    return peak.any(axis=1)
+
+
+def test_grow_leds_are_royal_blue_and_deep_red_with_far_red():
+    """Horticultural LEDs: AlGaInP deep red 655–665 nm in every fixture, InGaN royal blue
+    440–455 nm (or a white's 440–465 nm pump), GaAlAs far red 725–740 nm in many; the strongest
+    sample is always one of the blue or red emitters, never the gap between them."""
+    spds = prior.led_grow(np.random.default_rng(20), 600)
+    assert np.all(_local_peak_in(spds, 650, 670))
+    assert np.mean(_local_peak_in(spds, 440, 465)) > 0.7
+    assert 0.25 < np.mean(_local_peak_in(spds, 720, 745)) < 0.7
+    assert np.mean(_local_peak_in(spds, 680, 715)) < 0.02  # deep red and far red stay apart
+    peak_nm = WAVELENGTHS_NM[np.argmax(spds, axis=1)]
+    assert np.all(((peak_nm >= 435) & (peak_nm <= 470)) | ((peak_nm >= 620) & (peak_nm <= 670)))
+
+
+def test_xenon_flash_is_a_near_daylight_continuum_with_xenon_lines():
+    """A flash tube: CCT mostly 5000–8500 K near the locus (warming windows pull it to ~5500 K),
+    Xe II 484.4 nm and 529.2/533.9 nm lines above the continuum, nothing at 500 nm."""
+    spds = prior.xenon_flash(np.random.default_rng(21), 400)
+    cct, duv = _cct_duv(spds)
+    assert 4500 < np.percentile(cct, 5) and np.percentile(cct, 95) < 9500 and 5500 < np.median(cct) < 7000
+    assert np.all(np.abs(duv) < 0.025)
+    assert np.mean(_spikiness(spds, _idx(485)) > 0) > 0.9
+    assert np.mean(_spikiness(spds, _idx(530)) > 0) > 0.9
+    assert np.mean(_spikiness(spds, _idx(500)) > 0) < 0.05
+    assert np.median(spds[:, _idx(380)]) < 0.3  # most flashes sit behind a UV-absorbing window
+
+
 def test_filters_only_remove_light():
     rng = np.random.default_rng(15)
     t = _filter_transmission(rng, 500)

@@ -78,7 +78,7 @@ def focal_px_for(image: LinearImage, preset: Preset) -> tuple[float, str]:
         if math.isfinite(value) and value > 0:
             return value, "exif"
     if exif.focal_length_35mm:
-        value = exif.focal_length_35mm / 36.0 * max(width, height)
+        value = exif.focal_length_35mm / 36.0 * max(image.displayed_size) / image.scale  # a window keeps the pitch
         if math.isfinite(value) and value > 0:
             return value, "exif-35mm"
     cam = preset.camera

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from .camera_pipeline import CameraPipeline
 from .errors import CDSpectraError
 from .readout import FEATURE_LAMBDA_NM, N_FEATURES
+from .spectral_grid import WAVELENGTHS_NM
 from .user_folders import ENV_DIR, calibration_dir, set_default_directory
 
 GAIN_LIMITS = (0.2, 5.0)
@@ -55,9 +56,14 @@ class Calibration:
     # The in-camera processing (white balance, matrix, tone curve) of a JPEG/HEIC calibration
     # shot, undone before the readout of every photo calibrated with it; None for raw/linear.
     pipeline: CameraPipeline | None = None
+    # The camera's own (81, 3) sensitivities, fitted from the shot (:mod:`.camera_fit`) when it
+    # was made with the generic profile; later photos are solved with them. None: the profile's.
+    sensitivities: NDArray[np.float64] | None = None
 
     def to_json(self) -> dict[str, Any]:
-        extra = {} if self.pipeline is None else {"pipeline": self.pipeline.to_json()}
+        extra: dict[str, Any] = {} if self.pipeline is None else {"pipeline": self.pipeline.to_json()}
+        if self.sensitivities is not None:
+            extra["sensitivities"] = np.round(self.sensitivities, 6).tolist()
         return {"name": self.name, "preset": self.preset, "camera": self.camera,
                 "feature_lambda_nm": FEATURE_LAMBDA_NM.tolist(), "gains": np.round(self.gains, 6).tolist(),
                 **self.metadata, **extra}
@@ -130,11 +136,26 @@ def load_calibration(name_or_path: str | Path, directory: Path | None = None) ->
         pipeline = CameraPipeline.from_json(data["pipeline"]) if data.get("pipeline") is not None else None
     except CDSpectraError as exc:
         raise CDSpectraError(f"calibration profile {path.name}: {exc}") from exc
+    sensitivities = _sensitivities(data.get("sensitivities"), path.name)
     meta = {k: v for k, v in data.items()
-            if k not in ("name", "gains", "feature_lambda_nm", "preset", "camera", "pipeline")}
+            if k not in ("name", "gains", "feature_lambda_nm", "preset", "camera", "pipeline", "sensitivities")}
     limits = GAIN_LIMITS if pipeline is None else PIPELINE_GAIN_LIMITS
     return Calibration(str(data.get("name", path.stem)), np.clip(gains, *limits), str(data.get("preset", "")),
-                       str(data.get("camera", "")), meta, pipeline)
+                       str(data.get("camera", "")), meta, pipeline, sensitivities)
+
+
+def _sensitivities(value: Any, file_name: str) -> NDArray[np.float64] | None:
+    """A profile's fitted camera sensitivities (absent in profiles written before they existed)."""
+    if value is None:
+        return None
+    try:
+        sens = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        sens = np.zeros(0)
+    if sens.shape != (WAVELENGTHS_NM.size, 3) or not np.all(np.isfinite(sens)) or sens.min() < 0 or sens.max() <= 0:
+        raise CDSpectraError(f"calibration profile {file_name}: its camera sensitivities are not 81 × 3 finite, "
+                             "non-negative values — calibrate again")
+    return sens / sens.max()
 
 
 def list_calibrations(directory: Path | None = None) -> list[str]:
@@ -147,4 +168,5 @@ def list_calibrations(directory: Path | None = None) -> list[str]:
 def new_metadata(photo: str, reference: str) -> dict[str, Any]:
     return {"photo": photo, "reference": reference, "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "format": 1, "note": "gains = measured / predicted profile, per λ₁ bin and channel; an optional "
-            "'pipeline' (in-camera matrix and tone curve) is undone before the profile is read"}
+            "'pipeline' (in-camera matrix and tone curve) is undone before the profile is read; optional "
+            "'sensitivities' (the camera's, fitted from the shot) replace the camera profile's"}

@@ -23,20 +23,21 @@ from . import colour
 from .analysis import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
                        network_inputs, physics_spd, prepare)
 from .calibration import Calibration, load_calibration
+from .camera_fit import CameraPrior, camera_prior
 from .cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from .capture import DEFAULT_PRESET, Preset, Scene, load_preset
 from .capture_advice import capture_angles, coverage_advice
 from .colour_check import wavelength_shift_nm
 from .errors import CDSpectraError, PhotoError
-from .images import LinearImage, load_photo
+from .disc_window import load_for_estimate
+from .images import LinearImage
 from .model import SpectralModel, load_model
 from .pose_fit import PoseFit, colour_blur_nm
 from .readout import Readout
 from .result import DiscFit, Estimate
-from .solve import GaussianPrior, fused_solve
+from .solve import GaussianPrior, band_blend, fused_solve
 from .spectral_grid import WAVELENGTHS_NM
 
-MAX_SIDE = 1024
 AUTO = "auto"  # the camera profile from the photo's EXIF
 # The general-pose fit models a camera aimed a few degrees off (issue 10: camera ±3° costs no
 # accuracy in bench/pose_errors.md), but it cannot tell such a camera from a cropped photo, whose
@@ -62,7 +63,8 @@ PROCESSED_CONFIDENCE = 0.5
 AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
-__all__ = ["MAX_SIDE", "AUTO", "estimate_image", "estimate_photo", "camera_for", "resolve_camera"]
+__all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
+           "solving_camera"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -72,6 +74,25 @@ def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, b
             raise CDSpectraError("the generic camera profile comes with the model, which is not available")
         return CameraProfile(GENERIC_CAMERA, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
     return load_camera(name), False
+
+
+def camera_prior_for(model: SpectralModel | None) -> CameraPrior:
+    """The prior over camera sensitivities whose mean is ``model``'s generic profile: its
+    training cameras (all shipped profiles without a model that names them)."""
+    cameras = (model.metadata.get("cameras") or {}) if model is not None else {}
+    names = [n for n in cameras.get("train", []) if n in camera_names()] if isinstance(cameras, dict) else []
+    return camera_prior(names or camera_names())
+
+
+def solving_camera(camera: CameraProfile, generic: bool, calibration: Calibration | None
+                   ) -> tuple[CameraProfile, bool]:
+    """The sensitivities a photo is solved with, and whether to call them generic: a calibration
+    that measured the camera's own sensitivities replaces the profile, and the network is told
+    the camera is known (generic + calibration, 30 synthetic SPDs of the training prior,
+    `camera_files --synthetic`: MAE 0.016 told "known", 0.023 told "generic")."""
+    if calibration is None or calibration.sensitivities is None:
+        return camera, generic
+    return CameraProfile(camera.name, calibration.sensitivities), False
 
 
 def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
@@ -115,6 +136,14 @@ def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, floa
     if calibrated and "calibrated_strength" in f:
         return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
     return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
+
+
+def _band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.float64] | None:
+    """w(λ) of the network against physics + prior (1 = network), chosen per band on synthetic
+    photos when the model was built; None (the network everywhere) for a model without one."""
+    f = model.metadata.get("fusion") or {}
+    w = f.get("calibrated_band_weight") if calibrated and "calibrated_band_weight" in f else f.get("band_weight")
+    return None if w is None else np.asarray(w, dtype=np.float64)
 
 
 def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -262,6 +291,9 @@ def estimate_image(
     mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
     cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
     cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+    if cal is not None and cal.sensitivities is not None:
+        cam, generic = solving_camera(cam, generic, cal)
+        camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
     report(0.2, "Finding the disc")
     analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
     readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
@@ -277,6 +309,9 @@ def estimate_image(
         net, std = mdl.predict(x)
         strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
         spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
+        weight = _band_weight(mdl, calibrated=cal is not None)
+        if weight is not None and np.any(weight < 1.0):
+            spd = band_blend(readout, matrix, spd, e_phys, weight)
     else:
         spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
     spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
@@ -321,7 +356,7 @@ def estimate_image(
     height, width = image.rgb.shape[:2]
     s = image.scale
     disc = DiscFit(
-        center_px=((fit.center_px[1] + 0.5) * s - 0.5, (fit.center_px[0] + 0.5) * s - 0.5),
+        center_px=image.to_original(*fit.center_px),
         radius_px=preset_obj.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
         hole_radius_px=preset_obj.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
         px_per_mm=focal_px / fit.distance_mm * s,
@@ -339,7 +374,7 @@ def estimate_image(
         working_space=working_space,
         extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
                "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
-               "ring_center_px": [(fit.ring_center_px[1] + 0.5) * s - 0.5, (fit.ring_center_px[0] + 0.5) * s - 0.5]},
+               "ring_center_px": list(image.to_original(*fit.ring_center_px))},
         wavelength_nm=WAVELENGTHS_NM.copy(),
     )
 
@@ -360,9 +395,10 @@ def estimate_photo(
     report = progress or (lambda _f, _m: None)
     report(0.0, "Reading the photo")
     t0 = time.perf_counter()
-    image = load_photo(path, max_side=MAX_SIDE)
+    preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
+    image = load_for_estimate(path, preset_obj)
     load_ms = (time.perf_counter() - t0) * 1e3
-    result = estimate_image(image, preset=preset, camera=camera, calibration=calibration,
+    result = estimate_image(image, preset=preset_obj, camera=camera, calibration=calibration,
                             working_space=working_space, model=model, progress=progress, method=method)
     result.timing_ms["load"] = load_ms
     result.timing_ms["total"] += load_ms

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import PhotoError
+from .jpeg_chroma import box_decode, scaled_decode_is_faithful
 
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
@@ -286,6 +287,9 @@ def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int
                   keep: Callable[[Any], Any]) -> Pixels:
     """Decode ``im`` (JPEG: DCT-domain scaled by ``draft``). ``keep`` registers images to close."""
     used_draft = 1
+    if fmt == "jpeg" and draft > 1 and not scaled_decode_is_faithful(im):
+        codes = box_decode(im, draft)  # 4:2:2 chroma: see jpeg_chroma
+        return Pixels(codes.shape[1], codes.shape[0], 3, 8, draft, lambda y0, y1: codes[y0:y1])
     if fmt == "jpeg" and draft > 1:
         im.draft("RGB", (im.width // draft, im.height // draft))
         sizes = {s: (-(-header.width // s), -(-header.height // s)) for s in (8, 4, 2, 1)}

@@ -13,6 +13,15 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
   size and box-average by ``draft × box``. The box average is always in LINEAR light. A loaded
   pixel covers original pixels ``[i·scale, (i+1)·scale)`` (remainder rows/columns at the right
   and bottom are dropped), so a point at original x maps to x / scale.
+* **Centred crop.** ``centre_crop_px`` loads only a window around the image centre — where the
+  lens's axis meets the sensor, so the camera model stays a centred pinhole and nothing else
+  changes — and ``max_side`` then bounds the window's long side. A phone 21 cm above a CD sees
+  the disc across ~40 % of the frame: read whole at 1024 px, one pixel spans ~4 nm of the
+  rainbow and whole 5 nm bins go missing; read as a window, the same disc gets ~2× the pixels
+  per side at the cost of one more decode (:mod:`.disc_window` chooses the window). The window is
+  placed on whole decoded pixels, so its centre may sit up to half a decoded pixel off the true
+  image centre: a camera turned by < 0.1 mrad, far below what the pose fit resolves.
+  ``origin_px`` says where the loaded image's top-left corner lies in the displayed photo.
 * **Speed.** 24 MP JPEG (6000×4000, q90, 8 MB) → 750×500 in ≈ 85 ms: the 1/4 draft decode is
   ≈ 75 ms (full decode ≈ 240 ms, 1/2 ≈ 100 ms), LUT + box ≈ 10 ms. 12 MP: JPEG 75 ms, 8-bit
   PNG 0.45 s, 16-bit PNG 0.63 s (filter None) – 1.5 s (Paeth on every row), 16-bit TIFF
@@ -55,6 +64,7 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -107,6 +117,19 @@ class LinearImage:
     is_grey: bool = False  # no colour information: the spectrum cannot be estimated well
     processed: bool = False  # white balance / colour matrix / tone curve applied by the camera or an editor
     processed_reason: str = ""  # why the file is believed processed (for the user's warning)
+    # Top-left corner of the loaded image in the displayed (EXIF-oriented) photo, original pixels:
+    # loaded (row, col) maps to original (origin_y + (row + 0.5)·scale − 0.5, origin_x + …).
+    origin_px: tuple[float, float] = (0.0, 0.0)  # (x, y)
+
+    @property
+    def displayed_size(self) -> tuple[int, int]:
+        """(width, height) of the whole photo as shown (EXIF orientation applied), original pixels."""
+        w, h = self.original_size
+        return (h, w) if (self.exif.orientation or 1) >= 5 else (w, h)
+
+    def to_original(self, row: float, col: float) -> tuple[float, float]:
+        """(x, y) in the displayed photo's original pixels of a loaded (row, col) position."""
+        return (self.origin_px[0] + (col + 0.5) * self.scale - 0.5, self.origin_px[1] + (row + 0.5) * self.scale - 0.5)
 
 
 def register_decoder(func: Decoder) -> None:
@@ -123,20 +146,26 @@ def unregister_decoder(func: Decoder) -> None:
         _decoders.remove(func)
 
 
-def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto") -> LinearImage:
-    """Decode ``path`` into linear light with the long side ≤ ``max_side`` (see module doc)."""
+def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto",
+               centre_crop_px: tuple[float, float] | None = None) -> LinearImage:
+    """Decode ``path`` into linear light with the long side ≤ ``max_side`` (see module doc);
+    ``centre_crop_px`` (half width, half height, in the displayed photo's original pixels) loads
+    only that window around the image centre."""
     if transfer not in ("auto", "srgb", "linear"):
         raise ValueError(f"transfer must be 'auto', 'srgb' or 'linear', not {transfer!r}")
     if int(max_side) < 16:
         raise ValueError(f"max_side must be at least 16, not {max_side}")
+    if centre_crop_px is not None and not (len(centre_crop_px) == 2 and all(
+            isinstance(v, (int, float)) and np.isfinite(v) and v >= 8 for v in centre_crop_px)):
+        raise ValueError(f"centre_crop_px must be two finite half-sizes ≥ 8 pixels, not {centre_crop_px!r}")
     name = os.fspath(path)
     file = check_file(name)
     fmt = sniff_format(file)
     if fmt == "raw":
-        return _load_raw(file, name, int(max_side))
+        return _load_raw(file, name, int(max_side), centre_crop_px)
     try:
         with ExitStack() as stack:
-            return _load(file, name, fmt, int(max_side), transfer, stack)
+            return _load(file, name, fmt, int(max_side), transfer, stack, centre_crop_px)
     except PhotoError:
         raise
     except Unsupported as exc:
@@ -149,27 +178,75 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
 _FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR", "heif": "HEIC/HEIF"}
 
 
-def _load_raw(file: Path, name: str, max_side: int) -> LinearImage:
+def _load_raw(file: Path, name: str, max_side: int, crop: tuple[float, float] | None) -> LinearImage:
     """Camera raw: binned linear sensor RGB (:mod:`.raw_files`), box-averaged to ``max_side``."""
     photo = read_raw(file)
     height, width = photo.rgb.shape[:2]
-    box = max(1, _ceil_div(max(width, height), max_side))
-    h, w = height // box, width // box
-    if min(h, w) * box * photo.binning < MIN_SIDE:
+    if min(height, width) * photo.binning < MIN_SIDE:
         raise PhotoError(f"{name}: the image is too small ({width}x{height} after binning); the disc needs at least "
                          f"{MIN_SIDE} pixels on the short side")
-    rgb = _box_sum(photo.rgb[: h * box, : w * box], box) * np.float32(1.0 / (box * box))
-    saturated = _box_any(photo.saturated[: h * box, : w * box], box)
+    orientation = photo.exif.orientation or 1
+    half = _stored_half(crop, orientation)
+    unit = photo.binning
+    full = (width * unit, height * unit)
+    box = max(1, _ceil_div(_span(width, height, unit, half), max_side))
+    x0, y0, w, h = _window((width, height), unit, box, half, full)
+    rgb = _box_sum(photo.rgb[y0: y0 + h * box, x0: x0 + w * box], box) * np.float32(1.0 / (box * box))
+    saturated = _box_any(photo.saturated[y0: y0 + h * box, x0: x0 + w * box], box)
     if float(np.max(rgb)) < BLACK_LEVEL:
         raise PhotoError(f"{name}: photo is black — no light reached the camera")
-    orientation = photo.exif.orientation or 1
     rgb, saturated = _orient(rgb, orientation), _orient(saturated, orientation)
     reason = ("a linear (demosaiced) DNG: the phone or converter that wrote it may have processed its colours"
               if photo.linear_dng else "")
+    scale = float(box * unit)
     return LinearImage(
         rgb=np.ascontiguousarray(rgb, dtype=np.float32), saturated=np.ascontiguousarray(saturated),
-        invalid=np.zeros(saturated.shape, bool), scale=float(box * photo.binning), original_size=photo.original_size,
-        encoding="linear-raw", exif=photo.exif, path=name, processed=photo.linear_dng, processed_reason=reason)
+        invalid=np.zeros(saturated.shape, bool), scale=scale, original_size=photo.original_size,
+        encoding="linear-raw", exif=photo.exif, path=name, processed=photo.linear_dng, processed_reason=reason,
+        origin_px=_displayed_origin((x0 * unit, y0 * unit, w * scale, h * scale), full, orientation))
+
+
+def _stored_half(crop: tuple[float, float] | None, orientation: int) -> tuple[float, float] | None:
+    """A displayed-frame centred crop's half sizes in the stored frame (orientations 5–8 swap
+    the axes)."""
+    if crop is None:
+        return None
+    return (float(crop[1]), float(crop[0])) if orientation >= 5 else (float(crop[0]), float(crop[1]))
+
+
+def _span(width: int, height: int, unit: float, half: tuple[float, float] | None) -> int:
+    """Long side, in array pixels, of what will be loaded: the whole array or the crop within it."""
+    if half is None:
+        return max(width, height)
+    return int(math.ceil(max(min(width, 2.0 * half[0] / unit), min(height, 2.0 * half[1] / unit))))
+
+
+def _window(size: tuple[int, int], unit: float, box: int, half: tuple[float, float] | None,
+            full: tuple[float, float]) -> tuple[int, int, int, int]:
+    """(x0, y0, w, h): the loaded image is w × h blocks of ``box`` × ``box`` array pixels from array
+    pixel (x0, y0). ``unit`` is original pixels per array pixel (a JPEG draft, a raw binning),
+    ``full`` the photo's original (width, height). Without ``half`` the whole array (remainders at
+    the right and bottom dropped); with it the window of those half sizes (original pixels)
+    around the photo's centre, on whole array pixels."""
+    width, height = size
+    if half is None:
+        return 0, 0, width // box, height // box
+    w = max(1, min(width // box, int(2.0 * half[0] / (unit * box))))
+    h = max(1, min(height // box, int(2.0 * half[1] / (unit * box))))
+    x0 = int(round(min(max(full[0] / (2.0 * unit) - w * box / 2.0, 0.0), width - w * box)))
+    y0 = int(round(min(max(full[1] / (2.0 * unit) - h * box / 2.0, 0.0), height - h * box)))
+    return x0, y0, w, h
+
+
+def _displayed_origin(rect: tuple[float, float, float, float], full: tuple[float, float],
+                      orientation: int) -> tuple[float, float]:
+    """Top-left corner, in the displayed photo, of the stored-frame rectangle (x, y, w, h)."""
+    x, y, w, h = rect
+    width, height = full
+    x1, y1 = x + w, y + h
+    corners = {1: (x, y), 2: (width - x1, y), 3: (width - x1, height - y1), 4: (x, height - y1),
+               5: (y, x), 6: (height - y1, x), 7: (height - y1, width - x1), 8: (y, width - x1)}
+    return corners.get(orientation, (x, y))
 
 
 def _reason(exc: BaseException) -> str:
@@ -177,7 +254,8 @@ def _reason(exc: BaseException) -> str:
     return text if len(text) < 200 else text[:200] + "…"
 
 
-def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: ExitStack) -> LinearImage:
+def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: ExitStack,
+          crop: tuple[float, float] | None = None) -> LinearImage:
     keep = _closer(stack)
     im: Any = None
     sampling: dict[str, tuple[int, int]] = {}
@@ -199,7 +277,9 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
             header = tiff_header(file)
             fallback_reason = Unsupported(f"Pillow cannot read this TIFF ({_reason(exc)})")
     _check_size(name, header)
-    draft, box = _factors(max(header.width, header.height), max_side)
+    orientation = header.exif.orientation or 1
+    half = _stored_half(crop, orientation)
+    draft, box = _factors(_span(header.width, header.height, 1.0, half), max_side)
 
     pixels: Pixels | None = None
     if fallback_reason is None:
@@ -217,11 +297,31 @@ def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: 
     if pixels is None:
         assert fallback_reason is not None
         pixels = _fallback(name, header, fallback_reason)
+    if (header.exif.orientation or 1) != orientation:  # PNG: EXIF read only now; swaps a window's axes
+        orientation = header.exif.orientation or 1
+        half = _stored_half(crop, orientation)
+        draft, box = _factors(_span(header.width, header.height, 1.0, half), max_side)
     if draft * box % pixels.draft:
         raise RuntimeError(f"decoder scaled by {pixels.draft}, which does not divide {draft * box}")
-    image = _linearise(pixels, draft * box // pixels.draft, header, name, transfer)
+    block = draft * box // pixels.draft
+    full = (float(header.width), float(header.height))
+    x0, y0, w, h = _window((pixels.width, pixels.height), pixels.draft, block, half, full)
+    if (x0, y0, w * block, h * block) != (0, 0, pixels.width, pixels.height):
+        pixels = _windowed(pixels, x0, y0, w * block, h * block)
+    image = _linearise(pixels, block, header, name, transfer)
+    size = float(block * pixels.draft)
+    image = replace(image, origin_px=_displayed_origin((x0 * pixels.draft, y0 * pixels.draft, w * size, h * size),
+                                                       full, orientation))
     processed, reason = judge_processed(fmt, image.encoding, image.exif, image.rgb, image.saturated)
     return replace(image, processed=processed, processed_reason=reason)
+
+
+def _windowed(pixels: Pixels, x0: int, y0: int, width: int, height: int) -> Pixels:
+    """The same decoded pixels seen through a window (rows are still read in bands)."""
+    def read(a: int, b: int) -> NDArray[Any]:
+        return pixels.read(y0 + a, y0 + b)[:, x0: x0 + width]
+
+    return Pixels(width, height, pixels.channels, pixels.bits, pixels.draft, read)
 
 
 def _closer(stack: ExitStack) -> Callable[[Any], Any]:

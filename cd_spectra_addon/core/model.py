@@ -161,6 +161,16 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
                    for v in values):
             raise ModelError(f"model metadata {side.name}: fusion should hold a non-negative strength and floor, "
                              f"not {fusion!r} — reinstall the add-on or rebuild the model")
+        for key in ("band_weight", "calibrated_band_weight"):  # w(λ): network (1) vs physics + prior (0)
+            if key not in fusion:
+                continue
+            try:
+                weight = np.asarray(fusion[key], dtype=np.float64)
+            except (TypeError, ValueError):
+                weight = np.zeros(0)
+            if weight.shape != (N_BANDS,) or not np.all(np.isfinite(weight)) or np.any((weight < 0) | (weight > 1)):
+                raise ModelError(f"model metadata {side.name}: fusion.{key} should be {N_BANDS} numbers in 0–1 — "
+                                 "reinstall the add-on or rebuild the model")
     return meta
 
 

@@ -23,7 +23,8 @@ PRIOR_STRENGTH = 0.3  # weight of the Gaussian prior (1 = fully Bayesian); bench
 PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
 SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
 
-__all__ = ["SMOOTHNESS", "GaussianPrior", "fused_solve", "second_difference", "system", "physics_solve", "prior_solve"]
+__all__ = ["SMOOTHNESS", "GaussianPrior", "fused_solve", "photo_scale", "band_blend", "second_difference", "system",
+           "physics_solve", "prior_solve"]
 
 
 @dataclass(frozen=True)
@@ -116,6 +117,47 @@ def prior_solve(readout: Readout, matrix: NDArray[np.float64], prior: GaussianPr
     return nnls_normal(gram, rhs)[:n]
 
 
+def _scale_to(a: NDArray[np.float64], y: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+    """Least-squares factor that makes ``spd`` reproduce the weighted features ``y``."""
+    pred = a @ spd
+    return float(pred @ y) / max(float(pred @ pred), 1e-300)
+
+
+def photo_scale(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64],
+                gain: NDArray[np.float64] | None = None) -> float:
+    """The factor that puts a peak-normalised SPD into the photo's units (what the features say
+    its brightness is); 0 where the photo cannot tell."""
+    a, y, scale = system(readout, matrix, gain, background=False)
+    if scale <= 0 or a.shape[0] == 0:
+        return 0.0
+    s = _scale_to(a, y, np.clip(np.asarray(spd, dtype=np.float64), 0.0, None))
+    return s if s > 0 else 0.0
+
+
+def band_blend(readout: Readout, matrix: NDArray[np.float64], learned: NDArray[np.float64],
+               physics: NDArray[np.float64], weight: NDArray[np.float64], gain: NDArray[np.float64] | None = None
+               ) -> NDArray[np.float64]:
+    """w(λ)·learned + (1 − w(λ))·physics, non-negative and peak-normalised.
+
+    Each estimate is first put at the brightness that best reproduces the photo's features, so
+    their levels agree wherever both are right and a band taken from one joins the other without
+    a jump (peak-normalising each would not: a line's peak in one and a smooth bump in the other
+    set different scales). The weight comes with the model: 1 where the learned stage beat
+    physics + prior on synthetic photos, 0 where it did not, with smooth transitions."""
+    w = np.clip(np.asarray(weight, dtype=np.float64), 0.0, 1.0)
+    parts = []
+    for spd in (learned, physics):
+        spd = np.nan_to_num(np.clip(np.asarray(spd, dtype=np.float64), 0.0, None), nan=0.0, posinf=0.0)
+        peak = float(spd.max())
+        parts.append(spd / peak if peak > 0 else spd)
+    scales = [photo_scale(readout, matrix, p, gain) for p in parts]
+    if all(sc > 0 for sc in scales):
+        parts = [p * sc for p, sc in zip(parts, scales)]
+    out = w * parts[0] + (1.0 - w) * parts[1]
+    peak = float(out.max())
+    return out / peak if peak > 0 else out
+
+
 def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
                 strength: float, floor: float, gain: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
     """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior.
@@ -130,8 +172,7 @@ def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.
     a, y, scale = system(readout, matrix, gain)
     if scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
         return mean
-    pred = a[:, :n] @ mean
-    s = float(pred @ y) / max(float(pred @ pred), 1e-300)
+    s = _scale_to(a[:, :n], y, mean)
     if not s > 0:
         return mean
     sig = np.maximum(np.asarray(std, dtype=np.float64), floor) * s

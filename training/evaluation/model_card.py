@@ -14,6 +14,7 @@ from typing import Any
 
 from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
 
+from training.learning.spd_prior import FAMILIES
 from training.simulation.basis import REPO
 
 EVAL = REPO / "bench" / "eval.json"
@@ -23,10 +24,17 @@ def _fusion_lines(fusion: dict[str, Any] | None) -> list[str]:
     """How far the final solve trusts the network vs the photo: chosen on synthetic photos."""
     if not fusion:
         return []
-    return [f"- **Fusion with the photo:** strength {fusion['strength']:g} (floor {fusion['floor']:g}) uncalibrated,"
-            f" {fusion.get('calibrated_strength', fusion['strength']):g} (floor"
-            f" {fusion.get('calibrated_floor', fusion['floor']):g}) after a calibration shot; chosen on"
-            " synthetic photos of the prior's physical lamp families (`bench/fusion_tuning.md`)."]
+    lines = [f"- **Fusion with the photo:** strength {fusion['strength']:g} (floor {fusion['floor']:g}) uncalibrated,"
+             f" {fusion.get('calibrated_strength', fusion['strength']):g} (floor"
+             f" {fusion.get('calibrated_floor', fusion['floor']):g}) after a calibration shot; chosen on"
+             " synthetic photos of the prior's physical lamp families (`bench/fusion_tuning.md`)."]
+    bands = (fusion.get("bands") or {}).get("uncalibrated")
+    if bands:
+        used = [f"{r['band'][0]}–{r['band'][1]}" for r in bands if r["network"]]
+        lines.append("- **Where the network is used:** " + (", ".join(used) + " nm" if used else "nowhere") +
+                     "; physics + prior elsewhere (per band, where the network did not beat it clearly on the same"
+                     " synthetic photos; `fusion.band_weight`, 20 nm transitions).")
+    return lines
 
 
 def _f(v: Any, digits: int = 4) -> str:
@@ -71,7 +79,7 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         "",
         f"- **Data:** {t['train_samples'] + t['val_samples']} synthetic photos ({t['n_per_cube']} per capture geometry ×"
         f" {len(t['cubes'])} geometries: {', '.join(t['cubes'])}), basis cubes rendered by Cycles ({t['engine']});",
-        "  SPDs from `training/learning/spd_prior/` (17 physical lamp families, no measured spectra), random training",
+        f"  SPDs from `training/learning/spd_prior/` ({len(FAMILIES)} lamp families, no measured spectra), random training",
         "  cameras with ±2 % gain and ±1 nm shift errors, exposure 0.3–2× (clipping), 0.2–3 % noise, ambient",
         "  light, EXR / 16-bit PNG / 8-bit PNG / JPEG q75–98, read back through the product's loader; profiles taken",
         "  at geometries the pose fit produced. Data hash `" + meta["data_hash"] + "`.",
@@ -81,7 +89,8 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         f" Laplace likelihood, u'v' colour weight {t.get('colour_weight', 0.0):g} (`bench/model_choice.md` says why);"
         f" 10 % synthetic validation (MAE {_f(t['val_mae'])}). The network's fit took {t['seconds'] / 60:.1f} min;"
         f" dataset + fit + export + fusion tuning {(t.get('total_seconds') or 0) / 60:.1f} min on this machine with"
-        " the basis cubes already rendered (rendering the 13 cubes adds ~6 min, `bench/render.md`).",
+        f" the basis cubes already rendered (rendering the {len(t['cubes'])} cubes comes on top: `bench/render.md`,"
+        " `bench/buildable_cubes.md`).",
         *_fusion_lines(meta.get("fusion")),
         "- **Never used for training, tuning or selection:** the LSPDD lamps and colour-science's measured sources and",
         "  CIE illuminants.",

@@ -1,7 +1,7 @@
 """Train the spectral model on the synthetic dataset and export it to ONNX (``make model``).
 
-    python -m training.learning.train [--set full|smoke] [--n-per-cube N] [--epochs N] [--seed N]
-                             [--out models/] [--engine cycles|numpy]
+    python -m training.learning.train [--set buildable|full|smoke|buildable-smoke] [--n-per-cube N] [--epochs N]
+                             [--seed N] [--out models/] [--engine cycles|numpy] [--tune-photos N]
 
 Seeded end to end (prior, photos, split, initialisation, batches). Writes
 ``<out>/cd_spectra.onnx`` and its metadata ``<out>/cd_spectra.json``, checks onnxruntime against
@@ -31,7 +31,7 @@ from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, la
 from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
 
 from training.simulation.basis import REPO
-from training.learning.dataset import CUBE_SETS, build_dataset, camera_split, generic_sensitivities
+from training.learning.dataset import CUBE_SETS, SHIPPED_SET, build_dataset, camera_split, generic_sensitivities
 from training.learning.spd_prior import gaussian_prior
 from training.learning.tune_fusion import fusion_metadata, report, tune
 
@@ -204,8 +204,9 @@ def write_json(path: Path, payload: dict[str, Any]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--set", default="full", choices=sorted(CUBE_SETS))
-    parser.add_argument("--n-per-cube", type=int, default=1600)
+    parser.add_argument("--set", default=SHIPPED_SET, choices=sorted(CUBE_SETS))
+    parser.add_argument("--n-per-cube", type=int, default=1000,
+                        help="photos per geometry (buildable: 11 read today × 1000, 17 × 1000 once oblique photos are read)")
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--engine", default="cycles", choices=("cycles", "numpy"))
@@ -214,11 +215,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--colour-weight", type=float, default=COLOUR_WEIGHT,
                         help="weight of the u'v' colour term in the loss (0 = shape only)")
+    parser.add_argument("--tune-photos", type=int, default=96,
+                        help="synthetic photos per case for the fusion and per-band choice (refused ones are left out)")
+    parser.add_argument("--fusion-report", type=Path, default=None,
+                        help="where the fusion tables go (default: bench/fusion_tuning.md for the shipped set in models/)")
     parser.add_argument("--out", type=Path, default=REPO / "models")
     args = parser.parse_args(argv)
     torch.set_num_threads(max(1, min(args.threads, os.cpu_count() or 1)))
     t0 = time.perf_counter()
     path = build_dataset(args.set, args.n_per_cube, args.seed, args.engine, workers=args.workers)
+    dataset_seconds = time.perf_counter() - t0  # 0 when the dataset was cached
     data = dict(np.load(path))
     model, info = train(data, args.epochs, args.seed, tuple(args.hidden), colour_weight=args.colour_weight)
     train_cams, held = camera_split()
@@ -240,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
         "generic_camera": generic_sensitivities(train_cams).round(6).tolist(),
         "training": {**info, "cube_set": args.set, "cubes": [c.name for c in CUBE_SETS[args.set]],
                      "n_per_cube": args.n_per_cube, "seed": args.seed, "engine": args.engine,
-                     "total_seconds": None},
+                     "dataset_seconds": dataset_seconds, "tune_seconds": None, "total_seconds": None},
         "metrics": {},
         "prior": {"mean": prior.mean.round(7).tolist(), "covariance": prior.covariance.round(9).tolist(),
                   "strength": solve.PRIOR_STRENGTH, "jitter": solve.PRIOR_JITTER,
@@ -253,10 +259,16 @@ def main(argv: list[str] | None = None) -> int:
     metadata["onnx_parity_max_abs_diff"] = diff
     write_json(onnx_path.with_suffix(".json"), metadata)
     # How far the final solve trusts the network: chosen on synthetic photos, stored with it.
-    fusion = tune(load_model(onnx_path), args.set, 48 if args.set == "full" else 6, args.engine)
+    # …and, per band, whether the network beats physics + prior at all (else physics + prior ships there).
+    t_tune = time.perf_counter()
+    fusion = tune(load_model(onnx_path), args.set, args.tune_photos, args.engine)
+    metadata["training"]["tune_seconds"] = time.perf_counter() - t_tune
     metadata["fusion"] = fusion_metadata(fusion)
-    if args.set == "full" and args.out.resolve() == (REPO / "models").resolve():
-        (REPO / "bench" / "fusion_tuning.md").write_text(report(fusion), encoding="utf-8")
+    fusion_report = args.fusion_report
+    if fusion_report is None and args.set == SHIPPED_SET and args.out.resolve() == (REPO / "models").resolve():
+        fusion_report = REPO / "bench" / "fusion_tuning.md"
+    if fusion_report is not None:
+        fusion_report.write_text(report(fusion), encoding="utf-8")
     metadata["training"]["total_seconds"] = time.perf_counter() - t0
     write_json(onnx_path.with_suffix(".json"), metadata)
     print(f"wrote {onnx_path} ({onnx_path.stat().st_size / 1e6:.1f} MB), parity {diff:.1e}, "

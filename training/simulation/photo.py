@@ -25,7 +25,8 @@ from cd_spectra_addon.core.capture import Scene
 from cd_spectra_addon.core.diffraction import pixel_diffraction
 from cd_spectra_addon.core.srgb import srgb_encode
 
-FORMATS = ("exr", "png", "png16", "jpg", "heic", "heic10", "tiff16")
+FORMATS = ("exr", "png", "png16", "jpg", "jpg422", "heic", "heic10", "tiff16")
+DSLR_JPEG_QUALITY = 95  # "jpg422": a DSLR's in-camera "fine" JPEG, 4:2:2 chroma (Canon, Nikon, Sony)
 AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
@@ -162,6 +163,9 @@ def encode_photo(image: NDArray[np.float64], fmt: str, exif: bytes | None = None
         Image.fromarray(rgb8, "RGB").save(buffer, format="PNG", exif=exif or b"", compress_level=1)
     elif fmt == "jpg":
         Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=int(quality), exif=exif or b"")
+    elif fmt == "jpg422":
+        Image.fromarray(rgb8, "RGB").save(buffer, format="JPEG", quality=DSLR_JPEG_QUALITY, subsampling=1,
+                                          exif=exif or b"")
     else:
         raise ValueError(f"format must be one of {FORMATS}")
     return buffer.getvalue()

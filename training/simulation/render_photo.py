@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
                                  log=lambda m: print(m, file=sys.stderr))
     cam = scene.preset.camera
     exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * args.upsample, camera.name)
-    ext = {"png16": "png"}.get(args.format, args.format)
+    ext = {"png16": "png", "jpg422": "jpg", "heic10": "heic", "tiff16": "tif"}.get(args.format, args.format)
     rng = np.random.default_rng(args.seed)
     meter = photo.track_mask(scene)
     written = []

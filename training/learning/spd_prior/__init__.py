@@ -36,6 +36,7 @@ from training.learning.spd_prior.families import (
     fluorescent_tri,
     hps,
     incandescent,
+    led_grow,
     led_rgb,
     led_violet,
     led_white,
@@ -46,6 +47,7 @@ from training.learning.spd_prior.families import (
     smooth_noise,
     spiky,
     xenon,
+    xenon_flash,
 )
 from training.learning.spd_prior.grid import FINE_NM, fine_to_grid, lines_on_grid
 from training.learning.spd_prior.sampling import gaussian_prior, sample_spds
@@ -69,6 +71,7 @@ __all__ = [
     "led_white",
     "led_violet",
     "led_rgb",
+    "led_grow",
     "fluorescent_tri",
     "fluorescent_halo",
     "metal_halide",
@@ -76,5 +79,6 @@ __all__ = [
     "lps",
     "mercury",
     "xenon",
+    "xenon_flash",
     "filtered",
 ]

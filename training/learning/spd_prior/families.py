@@ -23,8 +23,12 @@ Families (label: what and why)
   ``fluorescent_halo`` (Sb³⁺/Mn²⁺ halophosphate bands + Hg lines).
 - ``metal_halide`` (Hg, Na, Tl, In, Sc, Li, Ca, Sr, rare-earth line forests + continuum),
   ``hps`` (self-reversed pressure-broadened Na D), ``lps`` (Na D doublet), ``mercury`` (clear or
-  red-phosphor mercury vapour), ``xenon`` (≈6000 K arc continuum + Xe lines).
-- ``filtered``: any physical family behind a gel / filter (long-, short-, band-pass, notch,
+  red-phosphor mercury vapour), ``xenon`` (short arc: ≈6000 K continuum + Xe I lines),
+  ``xenon_flash`` (flash tube: a hotter, partly transparent plasma, Xe I or Xe II lines, a
+  UV/warming window).
+- ``led_grow``: plant-grow LEDs — royal-blue + deep-red 'blurple' (± 630 nm red, 730 nm far red,
+  UV-A), 'full-spectrum' grow whites (phosphor white + deep red ± far red), red/far-red bars.
+- ``filtered``: any physical family (tungsten, daylight, flash, LEDs, discharge lamps) behind a gel / filter (long-, short-, band-pass, notch,
   mired-shift CTO/CTB, random dye curve) at a random density.
 
 Default family weights (:data:`DEFAULT_WEIGHTS`, normalised at use): about a fifth generic
@@ -89,6 +93,9 @@ _DY_HO_TM = ((404.60, 0.5), (418.68, 0.6), (419.48, 0.4), (421.17, 0.6), (405.39
              (410.38, 0.5), (416.30, 0.4), (409.42, 0.4), (410.58, 0.4), (418.76, 0.4),
              (420.37, 0.3), (530.72, 0.2), (598.86, 0.2), (642.19, 0.15))
 _K = ((766.49, 1.0), (769.90, 0.6))
+# Xe II (ionic; flash tubes at high current density).
+_XE_II = ((460.30, 0.4), (484.43, 1.0), (529.22, 0.7), (533.93, 0.6), (541.92, 0.8), (597.65, 0.4),
+          (605.12, 0.3))
 _XE = ((450.10, 0.3), (452.47, 0.3), (462.43, 0.5), (467.12, 1.0), (473.42, 0.5), (480.70, 0.4),
        (482.97, 0.6), (492.32, 0.4), (764.20, 0.6))
 _NE = ((585.25, 0.6), (588.19, 0.3), (594.48, 0.3), (597.55, 0.2), (603.00, 0.2), (607.43, 0.3),
@@ -647,14 +654,80 @@ def mercury(rng: Generator, n: int) -> Array:
 
 @_family("xenon")
 def xenon(rng: Generator, n: int) -> Array:
-    """Xenon short arc / flash: a ≈5300–6500 K continuum with Xe lines in 450–500 nm; flashes
-    often behind a UV / warming coating."""
+    """Xenon short arc (projectors, solar simulators, searchlights): a ≈5300–6500 K continuum
+    with Xe I lines in 450–500 nm; some behind a UV-cut coating. Flash tubes: ``xenon_flash``."""
     cont = planck(GRID, _u(rng, 5300.0, 6500.0, n)[:, None])
     cont = _unit_power(cont * np.exp(0.05 * rng.standard_normal((n, 1)) * (GRID - 580.0) / 200.0))
     lines = _group_lines(rng, n, [_LineGroup(_XE, power=(0.005, 0.04), fwhm=(1.0, 5.0), eta=(0.2, 0.7))])
     coat = np.where((rng.random(n) < 0.3)[:, None],
                     0.05 + 0.95 * _sigmoid((GRID - _u(rng, 390.0, 430.0, n)[:, None]) / 6.0), 1.0)
     return (cont + lines) * coat
+
+
+@_family("xenon_flash")
+def xenon_flash(rng: Generator, n: int) -> Array:
+    """Xenon flash tube (speedlights, studio strobes, phone xenon flashes). The pulsed plasma is
+    hotter than a short arc (≈6500–11000 K) but optically thin at low current density: its
+    emissivity 1 − exp(−τ), with τ ∝ λ² (free–free absorption grows towards the red), leaves a
+    continuum redder than Planck's at the plasma temperature — at high current density (short,
+    full-power pulses) τ is large and the tube approaches a blackbody. Ionic Xe II lines appear
+    at high current density, neutral Xe I lines at low; most flashes sit behind a UV-absorbing,
+    often slightly yellow, window that takes the colour to ≈5500 K."""
+    t = _u(rng, 6500.0, 11000.0, n)[:, None]
+    tau = _logu(rng, 0.2, 5.0, n)[:, None] * (GRID / 550.0) ** 2
+    cont = _unit_power(planck(GRID, t) * -np.expm1(-tau))
+    density = rng.random(n)  # current density, low → high: lines change from Xe I to Xe II
+    xe1 = _group_lines(rng, n, [_LineGroup(_XE, power=(0.005, 0.04), fwhm=(1.0, 5.0), eta=(0.2, 0.7))])
+    xe2 = _group_lines(rng, n, [_LineGroup(_XE_II, power=(0.01, 0.08), fwhm=(1.0, 6.0), eta=(0.3, 0.8))])
+    spd = cont + (1.0 - density)[:, None] * xe1 + density[:, None] * xe2
+    window = np.where((rng.random(n) < 0.6)[:, None],
+                      0.02 + 0.98 * _sigmoid((GRID - _u(rng, 385.0, 440.0, n)[:, None]) / _u(rng, 5.0, 15.0, n)[:, None]),
+                      1.0)
+    return spd * window
+
+
+# ---- horticultural LEDs ---------------------------------------------------------------------
+# (peak range nm, FWHM range nm) of grow-light emitters: InGaN UV-A, royal blue and blue;
+# AlGaInP red and deep red; GaAlAs far red (datasheet values).
+_GROW_CHANNELS = {
+    "uv": ((385.0, 405.0), (10.0, 15.0)),
+    "royal_blue": ((440.0, 455.0), (17.0, 24.0)),
+    "blue": ((460.0, 470.0), (20.0, 27.0)),
+    "red": ((625.0, 635.0), (15.0, 20.0)),
+    "deep_red": ((655.0, 665.0), (17.0, 25.0)),
+    "far_red": ((725.0, 740.0), (25.0, 35.0)),
+}
+
+
+def _grow_channel(rng: Generator, name: str, power: Array) -> Array:
+    (lo, hi), fwhm = _GROW_CHANNELS[name]
+    n = power.size
+    return power[:, None] * _unit_power(_band_grid(_u(rng, lo, hi, n), _u(rng, *fwhm, n)))
+
+
+@_family("led_grow")
+def led_grow(rng: Generator, n: int) -> Array:
+    """Plant-grow LEDs. 'Blurple' fixtures: royal blue ≈450 nm + deep red ≈660 nm (red:blue
+    power 1.5–10), optionally 630 nm red, 730 nm far red and a 385–405 nm UV-A channel;
+    'full-spectrum' grow whites: a phosphor white (warm to cool) with 10–50 % of the power
+    added in deep red and often some far red; flowering / end-of-day bars: deep red + far red."""
+    kind = rng.choice(3, n, p=[0.4, 0.45, 0.15])
+    zero = np.zeros(n)
+    blurple, white, bar = kind == 0, kind == 1, kind == 2
+    out = _grow_channel(rng, "deep_red", np.ones(n))
+    blue_share = np.where(blurple, 1.0 / _u(rng, 1.5, 10.0, n), zero)
+    out += _grow_channel(rng, "royal_blue", blue_share)
+    out += _grow_channel(rng, "blue", np.where(blurple & (rng.random(n) < 0.2), 0.5 * blue_share, zero))
+    out += _grow_channel(rng, "red", np.where(blurple & (rng.random(n) < 0.5), _u(rng, 0.1, 0.6, n), zero))
+    out += _grow_channel(rng, "uv", np.where(blurple & (rng.random(n) < 0.15), _u(rng, 0.02, 0.1, n), zero))
+    far = np.select([bar, white], [_u(rng, 0.2, 1.0, n), (rng.random(n) < 0.6) * _u(rng, 0.02, 0.15, n)],
+                    (rng.random(n) < 0.4) * _u(rng, 0.03, 0.2, n))
+    out += _grow_channel(rng, "far_red", far)
+    if np.any(white):
+        m = int(white.sum())
+        red_share = _u(rng, 0.1, 0.5, m)  # deep red's share of deep red + white (unit power above)
+        out[white] += ((1.0 - red_share) / red_share)[:, None] * _unit_power(led_white(rng, m))
+    return out
 
 
 # ---- filters --------------------------------------------------------------------------------
@@ -685,7 +758,7 @@ def _filter_transmission(rng: Generator, n: int) -> Array:
 
 
 _FILTER_BASES = ("blackbody", "incandescent", "daylight", "led_white", "led_violet", "led_rgb",
-                 "fluorescent_tri", "fluorescent_halo", "metal_halide", "hps", "mercury", "xenon")
+                 "fluorescent_tri", "fluorescent_halo", "metal_halide", "hps", "mercury", "xenon", "xenon_flash")
 
 
 @_family("filtered")
@@ -703,8 +776,8 @@ def filtered(rng: Generator, n: int) -> Array:
     return peak_normalise(out) * _filter_transmission(rng, n)
 
 
-#: Default relative weights (normalised at use). Generic 20 %, thermal 11 %, daylight 8 %,
-#: LEDs 26 %, fluorescent 11 %, HID & arcs 12 %, filtered 12 %.
+#: Default relative weights (normalised at use). Generic 19 %, thermal 10 %, daylight 8 %,
+#: LEDs 28 % (grow lights 3 %), fluorescent 10 %, HID, arcs & flash 13 %, filtered 11 %.
 DEFAULT_WEIGHTS: dict[str, float] = {
     "smooth": 0.08,
     "smooth_noise": 0.05,
@@ -715,6 +788,7 @@ DEFAULT_WEIGHTS: dict[str, float] = {
     "led_white": 0.14,
     "led_violet": 0.04,
     "led_rgb": 0.08,
+    "led_grow": 0.03,
     "fluorescent_tri": 0.08,
     "fluorescent_halo": 0.03,
     "metal_halide": 0.05,
@@ -722,6 +796,7 @@ DEFAULT_WEIGHTS: dict[str, float] = {
     "lps": 0.01,
     "mercury": 0.01,
     "xenon": 0.02,
+    "xenon_flash": 0.02,
     "filtered": 0.12,
 }
 
