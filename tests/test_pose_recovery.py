@@ -251,3 +251,55 @@ def test_a_wrong_wavelength_axis_shows_in_the_camera_colours_and_the_confidence(
     assert any("colours put its wavelengths" in w for w in bad.warnings)
     assert not any("colours put its wavelengths" in w for w in good.warnings)
     assert bad.confidence < 0.7 * good.confidence
+
+
+def _lit_disc(scene: Scene, level: float = 0.05) -> np.ndarray:
+    """Room light on the disc only (a dark surround): the disc's outline shows."""
+    width, height = scene.preset.camera.image_size_px
+    disc = np.zeros(width * height)
+    disc[pixel_diffraction(scene).index] = level
+    return disc.reshape(height, width)[..., None] * np.array([1.0, 0.9, 0.75])
+
+
+def test_the_disc_outline_gives_the_camera_pose():
+    """A room-lit disc's outline, a circle of 60 mm seen as an ellipse with the EXIF focal length,
+    gives the disc's distance within 4 % and (one of its two solutions) its normal within 2.5°;
+    a photo of a dark disc (only the rainbow) shows no outline."""
+    from cd_spectra_addon.core import rim_ellipse
+
+    scene = _oblique(Pose(tilt_deg=(2.0, 1.0), camera_rotation_deg=(1.0, 0.0)), zoom=1.6)
+    scene = Scene(scene.preset.with_image_size(512), scene.pose)
+    cube = render_cube(scene, supersample=1)
+    image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
+    noisy = [np.minimum(photo.add_noise(image + extra, 0.01, np.random.default_rng(0)), 1.0)
+             for extra in (_lit_disc(scene), 0.0)]
+    outline = rim_ellipse.disc_ellipse(noisy[0])
+    assert outline is not None and rim_ellipse.disc_ellipse(noisy[1]) is None
+    truth = relative_pose.relative_pose(scene)
+    poses = rim_ellipse.circle_poses(outline, 60.0, scene.preset.camera.focal_px, (512, 512))
+    errors = [np.degrees(np.arccos(np.clip(normal @ truth.disc_normal, -1, 1))) for _, normal in poses]
+    assert min(errors) < 2.5
+    assert abs(np.linalg.norm(poses[0][0]) / truth.distance_mm - 1.0) < 0.04
+
+
+@pytest.mark.slow
+def test_a_visible_outline_rescues_a_wrong_preset():
+    """The photo is tripod-oblique's (camera 27.5° from the disc's axis) but the preset handed to
+    the fit says 40°: from the preset alone the fit reads the wrong wavelengths (λ₁ > 10 nm off);
+    with the room-lit disc's outline as a start it finds them (within 2 nm)."""
+    scene = _oblique(Pose(tilt_deg=(3.0, 2.0), camera_rotation_deg=(2.0, 1.0)))
+    preset = load_preset("tripod-oblique")
+    said = replace(preset, camera=replace(preset.camera, position_mm=(-207.0, 0.0, 246.7)))  # 40°, 322 mm
+    cube = render_cube(scene, supersample=2)
+    image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
+    px = pixel_diffraction(scene)
+    sel = px.on_tracks & (px.visibility > 0.3) & (px.lambda1_nm > 400) & (px.lambda1_nm < 700)
+    errors = []
+    for extra in (0.0, _lit_disc(scene)):
+        noisy = np.minimum(photo.add_noise(image + extra, 0.01, np.random.default_rng(0)), 1.0)
+        fit = general_pose.fit_general_pose(noisy, said, scene.preset.camera.focal_px,
+                                            sensitivities=CAMERA.sensitivities)
+        got = pixel_diffraction(fit.known_scene, px.index[sel])
+        keep = np.isin(px.index[sel], got.index)
+        errors.append(float(np.mean(np.abs(got.lambda1_nm - px.lambda1_nm[sel][keep]))) if keep.any() else 1e3)
+    assert errors[1] < 2.0 and errors[0] > 10.0

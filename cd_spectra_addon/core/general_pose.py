@@ -3,7 +3,8 @@
 Used by :func:`.analysis.prepare` for every preset. The preset is only a start. In order:
 
 1. starts — the preset's capture; the same turned so the photo's bright pattern lines up with
-   the predicted one (an FFT correlation); each of those moved by the rainbow's own colours
+   the predicted one (an FFT correlation); where the disc's outline shows, the two poses its
+   ellipse allows (:mod:`.rim_ellipse`); each of those moved by the rainbow's own colours
    (:mod:`.streak_colours`); for a camera above the disc the near-axis fit
    (:func:`.pose_fit.fit_pose`); and where the zero-order glint is seen (clipped), poses that put
    the lamp's mirror image exactly there, with the disc centre tried along the arcs' axis;
@@ -36,7 +37,8 @@ from .pose_fit import (FIT_STEP_NM, PoseFit, _axis_of_arcs, _informative_pixels,
 from .profile_residuals import ProfileGrid, profile_residuals
 from .relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis, nominal_scene,
                             pixel_rays, project, ray_diffraction, relative_pose, scene_from_relative, with_glint_at,
-                            with_lamp_distance)
+                            turn_between, with_lamp_distance)
+from .rim_ellipse import Ellipse, circle_poses, disc_base, disc_ellipse
 from .streak_colours import streak_fit
 
 __all__ = ["fit_general_pose", "STAGES"]
@@ -134,8 +136,8 @@ def _without_glint(subset: NDArray[np.int64], scene: Scene) -> NDArray[np.int64]
 
 
 def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
-            sensitivities: NDArray[np.float64] | None, saturated: NDArray[np.bool_] | None
-            ) -> tuple[list[tuple[RelativePose, NDArray[np.float64]]], int]:
+            sensitivities: NDArray[np.float64] | None, saturated: NDArray[np.bool_] | None,
+            outline: Ellipse | None = None) -> tuple[list[tuple[RelativePose, NDArray[np.float64]]], int]:
     """Candidate starting poses (see the module docstring, step 1) and the evaluations spent."""
     height, width, _ = rgb.shape
     size = (width, height)
@@ -153,7 +155,16 @@ def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
     shifted[0] = -math.degrees(math.atan2(dr * factor, focal_px))
     shifted[1] = -math.degrees(math.atan2(dc * factor, focal_px))
     starts.append((nominal, shifted))
+    if outline is not None:
+        # The disc's outline (where room light shows it): its centre, distance and turn from the
+        # ellipse, the lamp kept where the preset puts it relative to the disc.
+        for centre, normal in circle_poses(outline, preset.disc.rim_radius_mm, focal_px, size):
+            turn = turn_between(nominal.disc_normal, normal)
+            lamp = centre + turn @ (nominal.lamp_mm - nominal.disc_centre_mm)
+            starts.append((RelativePose(centre, normal, lamp, nominal.lobe_sigma, turn @ nominal.disc_x),
+                           np.zeros(N_PARAMS)))
     if sensitivities is not None:
+        # the rainbow's own colours name λ₁ along the streaks: a smooth fit good from far away
         half = box_downsample(rgb, 2)
         half_sat = None if saturated is None else box_downsample(np.asarray(saturated, np.float64), 2) > 0
         for rel, x in list(starts):
@@ -196,8 +207,12 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape
     size = (width, height)
+    outline = disc_ellipse(rgb, saturated)
+    if outline is not None:
+        # room light on the disc but not around it: the photo-wide offset missed it
+        rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
     flat = rgb.reshape(-1, 3)
-    starts, evals = _starts(rgb, preset, focal_px, sensitivities, saturated)
+    starts, evals = _starts(rgb, preset, focal_px, sensitivities, saturated, outline)
     blur = colour_blur_nm(preset, preset.light.lobe_sigma, focal_px)
     subset = _subset(rgb, saturated, LM_PIXELS)
 

@@ -28,7 +28,7 @@ from .grating import COS_EPS
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
            "aimed_at", "mirror_point", "with_glint_at", "project", "near_axis", "with_lamp_distance",
-           "RayDiffraction", "pixel_rays", "ray_diffraction"]
+           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
 
@@ -142,7 +142,7 @@ def project(point: NDArray[np.float64], size: tuple[int, int], focal_px: float) 
     return (height / 2.0 - 0.5 - point[1] * scale, point[0] * scale + width / 2.0 - 0.5)
 
 
-def _turn(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+def turn_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """The rotation taking unit vector a to unit vector b (Rodrigues)."""
     v = np.cross(a, b)
     c = float(a @ b)
@@ -152,7 +152,7 @@ def _turn(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]
 
 def aimed_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float) -> RelativePose:
     """``rel`` turned about the lens so that the disc centre appears at image point ``rc``."""
-    rot = _turn(rel.disc_centre_mm / np.linalg.norm(rel.disc_centre_mm), _ray(rc, size, focal_px))
+    rot = turn_between(rel.disc_centre_mm / np.linalg.norm(rel.disc_centre_mm), _ray(rc, size, focal_px))
     return RelativePose(rot @ rel.disc_centre_mm, rot @ rel.disc_normal, rot @ rel.lamp_mm, rel.lobe_sigma,
                         rot @ rel.disc_x)
 
