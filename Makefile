@@ -22,7 +22,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_spectra_files.py tests/test_grating.py tests/test_spectral_grid.py \
 	tests/test_camera_files.py tests/test_camera_pipeline.py tests/test_images.py tests/test_export_formats.py \
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
-	tests/test_capture_pose.py tests/test_general_pose.py tests/test_disc_window.py tests/test_camera_fit.py \
+	tests/test_capture_pose.py tests/test_general_pose.py tests/test_pose_recovery.py tests/test_disc_window.py tests/test_camera_fit.py \
 	tests/test_jpeg_chroma.py
 
 .PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
@@ -97,8 +97,12 @@ eval-camera-files: setup
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --out bench/camera_files.md
 
 # Capture pose errors (lamp beside the lens, camera off centre, tilt, ambient, lamp size): numpy twin, minutes.
+# Per set-up pose errors at a real photo's resolution (simulator). 12 lamps ≈ 1 h on the shared
+# 2-core machine; all 205 (POSE_LAMPS=205) ≈ 15 h single-process — add POSE_JOBS=2 (one process per set-up).
+POSE_LAMPS ?= 12
+POSE_JOBS ?= 1
 eval-poses: setup
-	$(PY) -m training.evaluation.pose_errors --out bench/pose_errors.md
+	$(PY) -m training.evaluation.pose_errors --lamps $(POSE_LAMPS) --jobs $(POSE_JOBS) --out bench/pose_errors.md
 
 bench: setup
 	$(PY) -m training.evaluation.bench --out bench/bench.md

@@ -97,24 +97,6 @@ def test_a_photo_the_product_refuses_is_not_a_training_sample(tmp_path, capture)
                            _prior(load_model())) is None
 
 
-@pytest.mark.parametrize("name", ["tripod-oblique", "phone-distant-lamp"])
-def test_an_oblique_preset_is_refused_with_what_to_use_instead(tmp_path, name):
-    """The inverse models a camera above the disc's centre: a photo read with an oblique preset
-    is refused before any fit, naming the near-axis set-up (not "too dark, move the lamp")."""
-    from cd_spectra_addon.core.errors import CDSpectraError
-
-    preset = load_preset(name).with_image_size(256)
-    scene = Scene(preset)
-    cube = render_cube(scene, supersample=1)
-    img, _ = photo.expose(photo.linear_photo(cube, _lamp(), load_camera(DEFAULT_CAMERA)), 0.9,
-                          photo.track_mask(scene))
-    path = tmp_path / "oblique.png"
-    photo.write_photo(path, np.ascontiguousarray(np.minimum(img, 1.0)), "png16")
-    with pytest.raises(CDSpectraError, match="oblique set-up.*phone-near-axis") as info:
-        estimate_image(load_photo(path), preset=name, camera=DEFAULT_CAMERA)
-    assert not isinstance(info.value, NoDiscError) and "\n" not in str(info.value)
-
-
 @pytest.mark.parametrize("camera", [DEFAULT_CAMERA, "generic"])
 def test_calibrated_in_camera_photo_gives_training_and_product_the_same_features(tmp_path, capture, camera):
     """An in-camera JPEG read with a CIE A calibration (its processing, and for the generic

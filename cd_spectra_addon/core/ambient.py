@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capture import Scene
-from .diffraction import pixel_diffraction
+from .diffraction import PixelDiffraction, pixel_diffraction
 
 # Offsets below this share of full scale are left alone: an 8-bit photo's dark noise floor
 # (1 % noise → read noise 0.002) and its quantisation are about this size, and a nominal photo
@@ -43,11 +43,12 @@ def rough_offset(rgb: NDArray[np.float64], excluded: NDArray[np.bool_] | None = 
     return _significant(np.percentile(flat, ROUGH_PERCENTILE, axis=0))
 
 
-def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None
-                ) -> NDArray[np.float64]:
+def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
+                pixels: PixelDiffraction | None = None) -> NDArray[np.float64]:
     """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
-    such pixels or the offset is insignificant)."""
-    px = pixel_diffraction(scene)
+    such pixels or the offset is insignificant). ``pixels``: the scene's diffraction coordinates
+    of all its disc pixels, where the caller has them."""
+    px = pixel_diffraction(scene) if pixels is None else pixels
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
     ok = np.ones(px.index.size, dtype=bool) if excluded is None else ~np.asarray(excluded).reshape(-1)[px.index]
     glint = np.hypot(px.u, px.v) < 0.05  # well clear of the mirror glint and its halo

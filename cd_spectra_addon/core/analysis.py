@@ -2,8 +2,9 @@
 
 ``prepare`` is used by the estimator, the calibration shot, dataset building and solver/fusion
 tuning alike, so every product-side step — the saturated|invalid mask, the greyscale-photo
-camera collapse, the focal length from EXIF, the pose fit, the calibration gains and the
-"no rainbow" refusal — also shapes the training data. ``physics_spd`` and ``network_inputs``
+camera collapse, the focal length from EXIF, the pose fit (:mod:`.general_pose`, any set-up:
+the preset is only its start), the calibration gains and the "no rainbow" refusal — also
+shapes the training data. ``physics_spd`` and ``network_inputs``
 are the next two steps, shared the same way: a dataset sample and a product estimate of the
 same photo see identical features (tests/test_inverse_path.py).
 """
@@ -23,12 +24,13 @@ from .calibration import Calibration
 from .cameras import CameraProfile
 from .capture import Preset, Scene
 from .capture_advice import advice_for_photo
-from .diffraction import PixelDiffraction
+from .diffraction import PixelDiffraction, pixel_diffraction
 from .errors import CDSpectraError, NoDiscError, PhotoError
 from .forward_matrix import bin_response, feature_matrix
 from .images import LinearImage
 from .model import model_inputs
-from .pose_fit import PoseFit, fit_pose
+from .general_pose import fit_general_pose
+from .pose_fit import PoseFit
 from .readout import Readout, extract_readout
 from .solve import GaussianPrior, physics_solve, prior_solve
 
@@ -110,13 +112,6 @@ def prepare(
     clipped almost everywhere and :class:`NoDiscError` where no CD rainbow is found.
     """
     t0 = time.perf_counter()
-    if not preset.camera.is_on_axis:
-        # Measured (issue 10): the pose fit models a camera above the disc's centre; an oblique
-        # photo was refused as "very dark" with advice to move the lamp — wrong for its set-up.
-        raise CDSpectraError(
-            f"the preset {preset.name!r} puts the camera off the disc's axis (an oblique set-up): this version "
-            "plans and renders oblique set-ups but reads only photos taken from above the disc's centre — "
-            "use a near-axis set-up such as 'phone-near-axis' (see the README's capture set-ups)")
     clipped = float(np.mean(image.saturated))
     if clipped > MAX_SATURATED_SHARE:
         raise PhotoError(f"{image.path or 'the photo'}: over-exposed, {100 * clipped:.0f}% of the photo is clipped "
@@ -133,10 +128,13 @@ def prepare(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:
-        fit = fit_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities)
+        fit = fit_general_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities,
+                               saturated=saturated)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
-    ambient = dark_offset(rgb, scene, saturated)
+    if pixels is None:
+        pixels = pixel_diffraction(scene)
+    ambient = dark_offset(rgb, scene, saturated, pixels)
     measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene, pixels)
     t2 = time.perf_counter()
     readout = _with_gains(measured, calibration)

@@ -5,6 +5,10 @@ and the camera's feet, and it moves towards the centre as the lamp moves out: at
 a lens 210 mm above the disc, 400–700 nm falls on the clear hub (r < 23 mm) and no algorithm
 can read it. How far the lamp may be is found here with the same per-pixel diffraction
 coordinate the readout uses, for the preset's camera and lamp height.
+
+For an oblique set-up (camera and lamp at angles from the disc's axis) what matters is those
+angles: the fitted capture's are compared with the preset's, and the part of 400–700 nm that
+misses the tracks is named.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from numpy.typing import NDArray
 
 from .capture import Light, Pose, Preset, Scene
 from .diffraction import pixel_diffraction
+from .relative_pose import near_axis
 
 REACH_SIDE = 256  # image side the reach is computed at (a pixel ≈ 0.5 mm on the disc)
 REACH_STEP_MM = 2.5
@@ -25,16 +30,35 @@ REACH_MAX_MM = 120.0
 REACH_COVERAGE = 0.95  # share of 400–700 nm (5 nm bins) that must land on the tracks
 MIN_VISIBILITY = 0.3  # as the readout
 
-__all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "lamp_advice"]
+__all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "lamp_advice", "missing_nm",
+           "capture_angles", "oblique_advice", "coverage_advice", "advice_for_photo"]
+
+
+def _covered_bins(scene: Scene) -> NDArray[np.int64]:
+    px = pixel_diffraction(scene)
+    lam = px.lambda1_nm[px.on_tracks & (px.visibility >= MIN_VISIBILITY)]
+    bins = np.floor((lam - 400.0) / 5.0).astype(np.int64)
+    return np.unique(bins[(bins >= 0) & (bins < 60)])
 
 
 def coverage_400_700(scene: Scene) -> float:
     """Share of the 5 nm bins of 400–700 nm that some visible first-order pixel on the tracks shows."""
-    px = pixel_diffraction(scene)
-    lam = px.lambda1_nm[px.on_tracks & (px.visibility >= MIN_VISIBILITY)]
-    bins = np.floor((lam - 400.0) / 5.0).astype(np.int64)
-    bins = bins[(bins >= 0) & (bins < 60)]
-    return float(np.unique(bins).size / 60.0)
+    return float(_covered_bins(scene).size / 60.0)
+
+
+def missing_nm(scene: Scene) -> list[tuple[int, int]]:
+    """The stretches of 400–700 nm (nm, 5 nm bins) no visible first-order pixel on the tracks shows."""
+    have = np.zeros(60, dtype=bool)
+    have[_covered_bins(scene)] = True
+    out: list[tuple[int, int]] = []
+    start = None
+    for i, ok in enumerate(np.append(have, True)):
+        if not ok and start is None:
+            start = i
+        elif ok and start is not None:
+            out.append((400 + 5 * start, 400 + 5 * i))
+            start = None
+    return out
 
 
 @lru_cache(maxsize=16)
@@ -109,9 +133,12 @@ def lamp_advice(preset: Preset, offset_mm: float | None) -> str:
 
 def advice_for_photo(preset: Preset, scene: Scene, fit_trusted: bool, rgb: NDArray[np.float64],
                      saturated: NDArray[np.bool_], focal_px: float) -> str:
-    """What to move for a photo whose rainbow could not be read: the lamp's distance from the
-    lens from the clipped glint (a direct sighting of the lamp's mirror image) where there is
-    one, else from the fitted pose where the fit is trusted."""
+    """What to move for a photo whose rainbow could not be read. Near-axis set-ups: the lamp's
+    distance from the lens from the clipped glint (a direct sighting of the lamp's mirror image)
+    where there is one, else from the fitted pose where the fit is trusted. Oblique set-ups: the
+    fitted angles against the preset's, or the preset's angles alone."""
+    if not near_axis(preset):
+        return oblique_advice(preset, scene if fit_trusted else None)
     glint = glint_px(rgb, saturated)
     offset: float | None = None
     if glint is not None:
@@ -120,3 +147,49 @@ def advice_for_photo(preset: Preset, scene: Scene, fit_trusted: bool, rgb: NDArr
     elif fit_trusted:
         offset = lamp_offset_mm(scene)
     return lamp_advice(preset, offset)
+
+
+def capture_angles(scene: Scene) -> tuple[float, float, float]:
+    """(camera, lamp) angles from the disc's axis in degrees, and the angle between their
+    directions around the axis (0: same side, 180: opposite sides) — in the disc's own frame,
+    so a tilted disc shows as changed angles."""
+    n = scene.disc_normal
+    cam = scene.camera_position - scene.disc_center
+    lamp = scene.light_position - scene.disc_center
+
+    def polar(v: NDArray[np.float64]) -> float:
+        return math.degrees(math.atan2(float(np.linalg.norm(v - (v @ n) * n)), float(v @ n)))
+
+    cam_t, lamp_t = cam - (cam @ n) * n, lamp - (lamp @ n) * n
+    norms = float(np.linalg.norm(cam_t) * np.linalg.norm(lamp_t))
+    between = math.degrees(math.acos(float(np.clip(cam_t @ lamp_t / norms, -1.0, 1.0)))) if norms > 1e-12 else 0.0
+    return polar(cam), polar(lamp), between
+
+
+def oblique_advice(preset: Preset, scene: Scene | None) -> str:
+    """What to move for an oblique set-up: the fitted camera and lamp angles against the preset's
+    (where a fit is trusted), and which part of 400–700 nm misses the tracks."""
+    cam0, lamp0, between0 = capture_angles(Scene(preset))
+    side0 = "the camera's side" if between0 < 90 else "the other side from the camera"
+    want = (f"camera {cam0:.0f}° and lamp {lamp0:.0f}° from the disc's axis, the lamp on {side0}, in one "
+            f"vertical plane through the disc's centre (preset '{preset.name}')")
+    if scene is None:
+        return f"place them as the set-up says: {want}"
+    cam, lamp, between = capture_angles(scene)
+    gaps = missing_nm(scene)
+    lost = ", ".join(f"{a}–{b} nm" for a, b in gaps)
+    told = f"{lost} misses the disc's tracks" if gaps else "the first order is on the tracks"
+    side = "the camera's side" if between < 90 else "the other side"
+    return (f"{told}: the photo shows the camera {cam:.0f}° and the lamp {lamp:.0f}° from the disc's axis "
+            f"(on {side}, {abs(between if between < 90 else 180 - between):.0f}° out of the camera's plane) — "
+            f"move them to the set-up's {want}")
+
+
+def coverage_advice(preset: Preset, scene: Scene) -> str:
+    """What to move when part of 400–700 nm misses the tracks, for the fitted ``scene``."""
+    if not near_axis(preset):
+        return oblique_advice(preset, scene)
+    offset = lamp_offset_mm(scene)
+    if offset > lamp_reach_mm(preset):
+        return lamp_advice(preset, offset)
+    return "the disc may be cut off by the frame, or the lamp and camera are too far off the disc's axis"

@@ -359,11 +359,12 @@ def _preset_ring_centre(preset: Preset, image_size: tuple[int, int], focal_px: f
 
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              max_evals: int = 150, distance_mm: float | None = None,
-             sensitivities: NDArray[np.float64] | None = None) -> PoseFit:
+             sensitivities: NDArray[np.float64] | None = None, refine: bool = True) -> PoseFit:
     """Fit disc centre, ring centre and lamp size to a linear photo (coordinates of ``rgb``).
 
     With the camera's ``sensitivities`` (81 × 3) the fit also asks every λ₁ bin to have the
-    camera's colour at that wavelength (see :func:`consistency`)."""
+    camera's colour at that wavelength (see :func:`consistency`). ``refine=False`` skips the
+    full-resolution refinement (the general-pose fit, which uses this as a start, refines anyway)."""
     height, width, _ = rgb.shape
     factor = max(1, int(round(max(height, width) / FIT_SIDE)))
     small = box_downsample(rgb, factor)
@@ -466,7 +467,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         if value2 <= RETRY_MAX_RESIDUAL and _contrast(value2, null2) > _contrast(value, null):
             x, value, null = y, value2, null2
     centre, ring = to_full((x[0], x[1])), to_full((x[2], x[3]))
-    if strength >= 0.05 and factor > 1:
+    if refine and strength >= 0.05 and factor > 1:
         centre, ring, value, more = _refine(np.asarray(rgb, dtype=np.float64), preset, focal_px, dist, centre, ring,
                                             sigma0 * math.exp(x[4]), max_evals, sensitivities)
         evals += more

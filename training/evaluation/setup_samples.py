@@ -3,8 +3,11 @@
     python -m training.evaluation.setup_samples [--lamps N] [--out bench/setup_samples.md]
 
 For each set-up preset (and cd-default as the reference row) the numpy twin renders the
-basis cube once, then N LSPDD lamps become 8-bit JPEGs with 1 % noise (the issue's test
-conditions) and go through ``estimate_photo(..., preset=<set-up>)`` with no pose hints.
+capture once as a real photo frames it — at 1024 px with the focal length scaled so the disc
+spans 800 px (``pose_errors.crop_preset``: a centred crop of a 12–24 MP photo, the same
+perspective), written at 2048 px — then N LSPDD lamps become 8-bit JPEGs with 1 % noise per
+photo pixel (the issue's test conditions) and go through ``estimate_photo(...,
+preset=<set-up>)``, the product's whole path (its disc-window loader too), with no pose hints.
 Prints, per set-up: photos refused (and the first message), median / mean MAE 400–700 of the
 rest, and mean confidence. Numbers are from the simulator, not from real photographs.
 """
@@ -20,31 +23,32 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene
 from cd_spectra_addon.core.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.estimate import estimate_photo
 from cd_spectra_addon.core.setups import setup_names
 
 from training.evaluation.lamps import lspdd_lamps
+from training.evaluation.pose_errors import UPSAMPLE, crop_preset
 from training.simulation import photo
-from training.simulation.basis import CACHE_DIR, basis_cube
+from training.simulation.render_numpy import render_cube
 
 NOISE = 0.01
 
 
 def evaluate(preset_name: str, lamps: list, folder: Path) -> dict:
-    scene = Scene(load_preset(preset_name))
-    cube, _ = basis_cube(scene, "numpy", None, CACHE_DIR)
+    scene = Scene(crop_preset(preset_name)[0])
+    cube = render_cube(scene, supersample=3)
     camera = load_camera(DEFAULT_CAMERA)
     cam = scene.preset.camera
-    exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0], camera.name)
+    exif = photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, cam.image_size_px[0] * UPSAMPLE, camera.name)
     meter = photo.track_mask(scene)
     rng = np.random.default_rng(0)
     maes, confidences, refusals, warned, warnings = [], [], Counter(), 0, Counter()
     for i, lamp in enumerate(lamps):
         image, _ = photo.expose(photo.linear_photo(cube, lamp.spd, camera), 1.0, meter)
-        image = np.minimum(photo.add_noise(image, NOISE, rng), 1.0)
+        image = np.minimum(photo.add_noise(photo.upsample(image, UPSAMPLE), NOISE, rng), 1.0)
         path = folder / f"{preset_name}-{i}.jpg"
         photo.write_photo(path, image, "jpg", exif)
         try:
@@ -70,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     every = lspdd_lamps()
     lamps = every[:: max(1, len(every) // args.lamps)][: args.lamps]
     lines = [f"# Today's estimator on the buildable set-ups ({len(lamps)} LSPDD lamps, 8-bit JPEG, 1 % noise, "
-             "numpy twin, no pose hints; simulator only)", "",
+             "numpy twin, disc 800 px across in a 2048 px photo, no pose hints; simulator only)", "",
              "`python -m training.evaluation.setup_samples`", "",
              "| preset | refused | MAE 400–700 median (mean) | confidence mean | warned | commonest refusal / warning |",
              "|---|---|---|---|---|---|"]

@@ -1,0 +1,271 @@
+"""The general-pose inverse: disc pose, lamp position and lamp size of any capture, from the photo.
+
+Used by :func:`.analysis.prepare` for every preset. The preset is only a start. In order:
+
+1. starts — the preset's capture; the same turned so the photo's bright pattern lines up with
+   the predicted one (an FFT correlation); where the disc's outline shows, the two poses its
+   ellipse allows (:mod:`.rim_ellipse`); each of those moved by the rainbow's own colours
+   (:mod:`.streak_colours`); for a camera above the disc the near-axis fit
+   (:func:`.pose_fit.fit_pose`); and where the zero-order glint is seen (clipped), poses that put
+   the lamp's mirror image exactly there, with the disc centre tried along the arcs' axis;
+2. the best start by the smooth self-consistency (:mod:`.profile_residuals`) on a coarse λ₁
+   profile (5 nm nodes): a profile too coarse for lamp lines does not lock onto them;
+3. Levenberg–Marquardt on all eight parameters (:func:`.relative_pose.apply_params`), first on
+   the coarse profile with the camera's colour at full weight (it pins the wavelength axis along
+   a single streak), then on a finer profile with the colour at 0.3 (the lamp's spectrum within
+   the lobe biases the colour by ~1 nm; the self-consistency is unbiased).
+
+The zero-order glint and clipped pixels are left out of every comparison. The result is a
+:class:`.pose_fit.PoseFit` whose ``known_scene`` is the fitted capture; its residual and null
+residual are the binned ``consistency`` of :mod:`.pose_fit`, so the rainbow contrast and the
+refusals mean what they always meant.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .capture import Preset, Scene
+from .capture_advice import glint_px
+from .diffraction import pixel_diffraction
+from .least_squares import levenberg_marquardt
+from .pose_fit import (FIT_STEP_NM, PoseFit, _axis_of_arcs, _informative_pixels, _zero_order, box_downsample,
+                       colour_blur_nm, consistency, expected_colours, fit_pose)
+from .profile_residuals import ProfileGrid, profile_residuals
+from .relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis, nominal_scene,
+                            pixel_rays, project, ray_diffraction, relative_pose, scene_from_relative, with_glint_at,
+                            turn_between, with_lamp_distance)
+from .rim_ellipse import Ellipse, circle_poses, disc_base, disc_ellipse
+from .streak_colours import streak_fit
+
+__all__ = ["fit_general_pose", "STAGES"]
+
+COARSE_SIDE = 256  # the bright pattern is lined up on an image of about this size
+FINE_PIXELS = 12_000  # pixels the reported (binned) consistency looks at, as pose_fit's refinement
+
+
+def _expected_pattern(scene: Scene) -> NDArray[np.float64]:
+    """Where the scene puts first-order light of 420–680 nm (amplitude per pixel, image-shaped)."""
+    width, height = scene.preset.camera.image_size_px
+    px = pixel_diffraction(scene)
+    keep = px.on_tracks & (px.lambda1_nm > 420) & (px.lambda1_nm < 680)
+    out = np.zeros(width * height)
+    out[px.index[keep]] = px.amplitude[keep]
+    return out.reshape(height, width)
+
+
+def _shift_by_correlation(photo_lum: NDArray[np.float64], pattern: NDArray[np.float64]) -> tuple[float, float]:
+    """(rows, cols) by which the photo's bright pattern is displaced from the predicted one."""
+    h, w = photo_lum.shape
+    a = np.fft.rfft2(photo_lum, s=(2 * h, 2 * w))
+    b = np.fft.rfft2(pattern, s=(2 * h, 2 * w))
+    corr = np.fft.irfft2(a * np.conj(b), s=(2 * h, 2 * w))
+    r, c = np.unravel_index(int(np.argmax(corr)), corr.shape)
+    r = r - 2 * h if r >= h else r
+    c = c - 2 * w if c >= w else c
+    return float(r), float(c)
+
+
+GRID_NM = (300.0, 2500.0)  # every λ₁ the disc shows: first order and the higher orders that share its |u|
+# (profile node spacing nm, weight of the camera's colour) of the successive fits; chosen on
+# synthetic spectra (sample_spds) at realistic resolution, never on the evaluation's lamps.
+STAGES = ((5.0, 1.0), (3.0, 0.3))
+LM_PIXELS = 8000
+REFINE_NEAR_AXIS = False  # its full-resolution refinement: the LM below does that better (same MAE, 0.3 s less)
+TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit each
+# Fitted: aim, tilt, lamp direction, σ. The lamp's distance stays the preset's: it moves λ₁ only
+# through the lamp's direction varying over the disc, and left free it soaked up colour errors of
+# an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
+FREE = np.array([0, 1, 2, 3, 4, 5, 7])
+LM_STEP = 1e-3  # forward-difference step of every parameter (degrees or log units)
+LM_ITERATIONS = 40
+PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
+PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log lamp distance, log σ
+ARCS_STRENGTH = 0.05  # below this the rainbow is full rings: the disc centre is the glint's
+GLINT_CENTRE_OFFSETS_MM = (2, 4, 6, 8, 10, 12, 14, 16, 20, 24)  # disc centre tried this far along the arcs
+
+
+class _Residuals:
+    """Smooth self-consistency residuals of a fixed pixel subset for parameters around ``rel0``
+    (normalised by the subset's energy), then the prior's."""
+
+    def __init__(self, flat: NDArray[np.float64], subset: NDArray[np.int64], preset: Preset,
+                 size: tuple[int, int], focal_px: float, rel0: RelativePose, grid: ProfileGrid, total: float):
+        self.preset, self.rel0, self.grid = preset, rel0, grid
+        self.norm = 1.0 / math.sqrt(max(total, 1e-300))
+        self.values = flat[subset]
+        self.rays = pixel_rays(subset, size, focal_px)
+        # the tracks' edges soft over one pixel's footprint, as the photo's pixels average them
+        # (a hard edge makes the residuals jump as the pose moves a pixel across it)
+        self.edge_mm = max(rel0.distance_mm / focal_px, 1e-3)
+        self.evaluations = 0
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        self.evaluations += 1
+        rd = ray_diffraction(self.rays, apply_params(self.rel0, x), self.preset.disc.pitch_um)
+        disc = self.preset.disc
+        edge = (np.clip((rd.radius_mm - disc.grating_r_min_mm) / self.edge_mm + 0.5, 0.0, 1.0)
+                * np.clip((disc.grating_r_max_mm - rd.radius_mm) / self.edge_mm + 0.5, 0.0, 1.0))
+        amp = rd.amplitude * edge * self.grid.taper(rd.lambda1_nm)
+        r = profile_residuals(self.values, rd.lambda1_nm, amp, self.grid)
+        return np.concatenate([r * self.norm, PRIOR_WEIGHT * x / PRIOR_SCALE])
+
+
+def _subset(rgb: NDArray[np.float64], excluded: NDArray[np.bool_] | None, count: int) -> NDArray[np.int64]:
+    """Flat indices of up to ``count`` pixels (sorted): the brightest half, where the rainbow is,
+    and a fixed random sample of the rest, where the pose must predict darkness; ``excluded``
+    pixels (clipped) never. A partial sort: a full one of a 1 MP photo took 60 ms per call."""
+    lum = rgb.sum(axis=2).ravel()
+    if excluded is not None:
+        lum = np.where(np.asarray(excluded).reshape(-1), -np.inf, lum)
+    usable = int(np.sum(np.isfinite(lum)))
+    half = min(count // 2, usable)
+    bright = np.argpartition(-lum, half - 1)[:half] if half > 0 else np.zeros(0, dtype=np.int64)
+    rest = np.setdiff1d(np.flatnonzero(np.isfinite(lum)), bright)
+    take = min(count - half, rest.size)
+    sample = np.random.default_rng(0).choice(rest, size=take, replace=False) if take else rest[:0]
+    return np.sort(np.concatenate([bright, sample])).astype(np.int64)
+
+
+def _without_glint(subset: NDArray[np.int64], scene: Scene) -> NDArray[np.int64]:
+    px = pixel_diffraction(scene, subset)
+    return np.setdiff1d(subset, px.index[_zero_order(px, scene)])
+
+
+def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
+            sensitivities: NDArray[np.float64] | None, saturated: NDArray[np.bool_] | None,
+            outline: Ellipse | None = None) -> tuple[list[tuple[RelativePose, NDArray[np.float64]]], int]:
+    """Candidate starting poses (see the module docstring, step 1) and the evaluations spent."""
+    height, width, _ = rgb.shape
+    size = (width, height)
+    evals = 0
+    nominal = relative_pose(nominal_scene(preset, size, focal_px))
+    starts = [(nominal, np.zeros(N_PARAMS))]
+    factor = max(1, int(round(max(height, width) / COARSE_SIDE)))
+    small = box_downsample(rgb, factor)
+    sh, sw, _ = small.shape
+    lum = small.sum(axis=2)
+    lum = np.clip(lum - np.median(lum), 0.0, None)
+    dr, dc = _shift_by_correlation(lum, _expected_pattern(scene_from_relative(nominal, preset, (sw, sh),
+                                                                              focal_px / factor)))
+    shifted = np.zeros(N_PARAMS)  # the camera turned the other way from how the pattern moved
+    shifted[0] = -math.degrees(math.atan2(dr * factor, focal_px))
+    shifted[1] = -math.degrees(math.atan2(dc * factor, focal_px))
+    starts.append((nominal, shifted))
+    if outline is not None:
+        # The disc's outline (where room light shows it): its centre, distance and turn from the
+        # ellipse, the lamp kept where the preset puts it relative to the disc.
+        for centre, normal in circle_poses(outline, preset.disc.rim_radius_mm, focal_px, size):
+            turn = turn_between(nominal.disc_normal, normal)
+            lamp = centre + turn @ (nominal.lamp_mm - nominal.disc_centre_mm)
+            starts.append((RelativePose(centre, normal, lamp, nominal.lobe_sigma, turn @ nominal.disc_x),
+                           np.zeros(N_PARAMS)))
+    if sensitivities is not None:
+        # the rainbow's own colours name λ₁ along the streaks: a smooth fit good from far away
+        half = box_downsample(rgb, 2)
+        half_sat = None if saturated is None else box_downsample(np.asarray(saturated, np.float64), 2) > 0
+        for rel, x in list(starts):
+            y, n = streak_fit(half, preset, focal_px / 2.0, rel, x, sensitivities, half_sat)
+            evals += n
+            starts.append((rel, y))
+    bases = [nominal]
+    if near_axis(preset):
+        near = fit_pose(rgb, preset, focal_px, sensitivities=sensitivities, refine=REFINE_NEAR_AXIS)
+        evals += near.evaluations
+        # its lamp sits at the camera's height (its model); the preset states the lamp's distance
+        lamp_distance = float(np.linalg.norm(nominal.lamp_mm - nominal.disc_centre_mm))
+        bases.append(with_lamp_distance(relative_pose(near.scene(preset, size)), lamp_distance))
+        starts.append((bases[-1], np.zeros(N_PARAMS)))
+    glint = glint_px(rgb, np.asarray(saturated)) if saturated is not None and np.any(saturated) else None
+    if glint is not None:
+        # The clipped glint is where the disc mirrors the lamp into the lens: a direct sighting
+        # of the lamp's direction. The disc centre is on the line the arcs follow through it.
+        g_small = ((glint[0] + 0.5) / factor - 0.5, (glint[1] + 0.5) / factor - 0.5)
+        px_per_mm = focal_px / nominal.distance_mm
+        angle, strength = _axis_of_arcs(lum, g_small, 15 * px_per_mm / factor, 60 * px_per_mm / factor)
+        axis = np.array([-math.sin(angle), math.cos(angle)])
+        offsets = [0.0] if strength < ARCS_STRENGTH else \
+            [0.0, *[sign * t for t in GLINT_CENTRE_OFFSETS_MM for sign in (1.0, -1.0)]]
+        for base in bases:
+            for t in offsets:
+                centre = (glint[0] + t * px_per_mm * axis[0], glint[1] + t * px_per_mm * axis[1])
+                cand = with_glint_at(aimed_at(base, centre, size, focal_px), glint, size, focal_px)
+                if cand is not None:
+                    starts.append((cand, np.zeros(N_PARAMS)))
+    return starts, evals
+
+
+def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
+                     sensitivities: NDArray[np.float64] | None = None,
+                     saturated: NDArray[np.bool_] | None = None) -> PoseFit:
+    """Disc pose, lamp position and lamp size of any capture from a linear photo (see the module
+    docstring). ``saturated`` pixels (clipped, invalid) are left out; with the camera's
+    ``sensitivities`` every λ₁ must also have the camera's colour there."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    height, width, _ = rgb.shape
+    size = (width, height)
+    outline = disc_ellipse(rgb, saturated)
+    if outline is not None:
+        # room light on the disc but not around it: the photo-wide offset missed it
+        rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
+    flat = rgb.reshape(-1, 3)
+    starts, evals = _starts(rgb, preset, focal_px, sensitivities, saturated, outline)
+    blur = colour_blur_nm(preset, preset.light.lobe_sigma, focal_px)
+    subset = _subset(rgb, saturated, LM_PIXELS)
+
+    def residuals_at(rel: RelativePose, x: NDArray[np.float64], node_nm: float, colour_weight: float) -> _Residuals:
+        grid = ProfileGrid.with_camera(*GRID_NM, node_nm, sensitivities, blur, colour_weight)
+        use = _without_glint(subset, scene_from_relative(apply_params(rel, x), preset, size, focal_px))
+        return _Residuals(flat, use, preset, size, focal_px, rel, grid, float(np.sum(flat[use] ** 2)))
+
+    def fit_stage(rel: RelativePose, x: NDArray[np.float64], node_nm: float, colour_weight: float
+                  ) -> tuple[NDArray[np.float64], float, int]:
+        res = residuals_at(rel, x, node_nm, colour_weight)
+
+        def free_residuals(y: NDArray[np.float64]) -> NDArray[np.float64]:
+            z = x.copy()
+            z[FREE] = y
+            return res(z)
+
+        y, cost, _ = levenberg_marquardt(free_residuals, x[FREE], np.full(FREE.size, LM_STEP),
+                                         max_iter=LM_ITERATIONS)
+        z = x.copy()
+        z[FREE] = y
+        return z, cost, res.evaluations
+
+    scored = []
+    for rel, x in starts:
+        r = residuals_at(rel, x, *STAGES[0])(x)
+        evals += 1
+        scored.append((float(r @ r), rel, x))
+    scored.sort(key=lambda item: item[0])
+    # The best few starts each get the coarse fit: a start that explains the photo best as it
+    # stands can still lead into a worse valley (a streak read as second order).
+    best: tuple[float, RelativePose, NDArray[np.float64]] | None = None
+    for _, rel, x in scored[:TRIED_STARTS]:
+        x, cost, n = fit_stage(rel, x, *STAGES[0])
+        evals += n
+        if best is None or cost < best[0]:
+            best = (cost, rel, x)
+    assert best is not None
+    _, rel0, x = best
+    for node_nm, colour_weight in STAGES[1:]:
+        x, _, n = fit_stage(rel0, x, node_nm, colour_weight)
+        evals += n
+    rel = apply_params(rel0, x)
+    scene = scene_from_relative(rel, preset, size, focal_px)
+    fine = _subset(rgb, saturated, FINE_PIXELS)
+    total = float(np.sum(flat[fine] ** 2))
+    colour = None if sensitivities is None else \
+        expected_colours(sensitivities, FIT_STEP_NM, colour_blur_nm(preset, rel.lobe_sigma, focal_px))
+    value = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=fine, colour=colour)
+    null = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=fine, colour=colour, scramble=True)
+    centre = project(rel.disc_centre_mm, size, focal_px)
+    glint = mirror_point(rel)
+    ring = project(glint, size, focal_px) if glint is not None else centre
+    return PoseFit(center_px=centre, ring_center_px=ring, lobe_sigma=float(rel.lobe_sigma), focal_px=float(focal_px),
+                   distance_mm=rel.distance_mm, residual=value, symmetry_center_px=centre, evaluations=evals,
+                   null_residual=null, known_scene=scene)
