@@ -37,7 +37,7 @@ from .pose_fit import (FIT_STEP_NM, PoseFit, _axis_of_arcs, _informative_pixels,
 from .profile_residuals import ProfileGrid, profile_residuals
 from .relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis, nominal_scene,
                             pixel_rays, project, ray_diffraction, relative_pose, scene_from_relative, with_glint_at,
-                            turn_between, with_lamp_distance)
+                            turn_between, turned_in_plane, with_lamp_distance)
 from .rim_ellipse import Ellipse, circle_poses, disc_base, disc_ellipse
 from .streak_colours import streak_fit
 
@@ -85,6 +85,13 @@ LM_ITERATIONS = 40
 PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
 PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log lamp distance, log σ
 ARCS_STRENGTH = 0.05  # below this the rainbow is full rings: the disc centre is the glint's
+# The in-plane valley (_valley_start); chosen on synthetic spectra (sample_spds), never on the lamps.
+SWING_DEG = 12.0  # the lamp's in-plane angle scanned this far either way (issue 10: lamp ±3°, tilt ≤ 5°: ~2° per degree of tilt)
+SWING_STEP_DEG = 0.5  # the coarse cost's teeth in that angle are ~0.5° wide at the bottom, ~1.5° apart
+SWUNG_STARTS = 2  # the deepest teeth of that scan are followed along the tilt
+TILT_DEG = 6.0  # ...this far either way
+TILT_STEP_DEG = 0.5
+VALLEY_STEP_DEG = 0.25  # the swing sampled this far either side of the valley's line at each tilt
 GLINT_CENTRE_OFFSETS_MM = (2, 4, 6, 8, 10, 12, 14, 16, 20, 24)  # disc centre tried this far along the arcs
 
 
@@ -104,14 +111,17 @@ class _Residuals:
         self.evaluations = 0
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate([self.at(apply_params(self.rel0, x)), PRIOR_WEIGHT * x / PRIOR_SCALE])
+
+    def at(self, rel: RelativePose) -> NDArray[np.float64]:
+        """The photo's residuals (no prior) for the capture ``rel``."""
         self.evaluations += 1
-        rd = ray_diffraction(self.rays, apply_params(self.rel0, x), self.preset.disc.pitch_um)
+        rd = ray_diffraction(self.rays, rel, self.preset.disc.pitch_um)
         disc = self.preset.disc
         edge = (np.clip((rd.radius_mm - disc.grating_r_min_mm) / self.edge_mm + 0.5, 0.0, 1.0)
                 * np.clip((disc.grating_r_max_mm - rd.radius_mm) / self.edge_mm + 0.5, 0.0, 1.0))
         amp = rd.amplitude * edge * self.grid.taper(rd.lambda1_nm)
-        r = profile_residuals(self.values, rd.lambda1_nm, amp, self.grid)
-        return np.concatenate([r * self.norm, PRIOR_WEIGHT * x / PRIOR_SCALE])
+        return profile_residuals(self.values, rd.lambda1_nm, amp, self.grid) * self.norm
 
 
 def _subset(rgb: NDArray[np.float64], excluded: NDArray[np.bool_] | None, count: int) -> NDArray[np.int64]:
@@ -198,6 +208,58 @@ def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
     return starts, evals
 
 
+def _valley_start(base: RelativePose, res: _Residuals) -> tuple[float, RelativePose] | None:
+    """The deepest point of the coarse cost's valley in the two in-plane angles about ``base``
+    (:func:`.relative_pose.turned_in_plane`): (cost, capture), or None where the lamp is seen
+    from the disc next to the lens.
+
+    Why: on an oblique streak a degree of the lamp's (or the disc's) in-plane angle slides the
+    wavelength axis by ~40 nm, and the camera's colour along the streak makes the coarse cost a
+    comb of valleys ~0.5° wide in the lamp's angle. A lamp swung or a disc tilted 3° about the
+    plane's normal puts the true valley teeth away from every start, and LM stays in a wrong one
+    (MAE 0.1–0.3). Along the valley (tilt and swing together keep the wavelength axis) the cost
+    is flat and bumpy, and LM stops where it enters it (a disc 3° tilted read as 0.7° the other
+    way, twice the true cost). So: scan the swing at zero tilt, then follow each of the deepest
+    SWUNG_STARTS teeth along the tilt, the swing re-centred at each step by a parabola through
+    three samples; the deepest point found is a start."""
+    if turned_in_plane(base, 0.0, 0.0) is None:
+        return None
+
+    def cost(tilt: float, swing: float) -> float:
+        rel = turned_in_plane(base, tilt, swing)
+        assert rel is not None
+        r = res.at(rel)
+        return float(r @ r)
+
+    swings = np.arange(-SWING_DEG, SWING_DEG + 1e-9, SWING_STEP_DEG)
+    costs = np.array([cost(0.0, float(s)) for s in swings])
+    minima = [i for i in range(1, costs.size - 1) if costs[i] < costs[i - 1] and costs[i] <= costs[i + 1]]
+    minima.sort(key=lambda i: costs[i])
+    best: tuple[float, float, float] | None = None
+    for i in minima[:SWUNG_STARTS]:
+        for sign in (1.0, -1.0):
+            swing = float(swings[i])
+            for tilt in sign * np.arange(0.0 if sign > 0 else TILT_STEP_DEG, TILT_DEG + 1e-9, TILT_STEP_DEG):
+                h = VALLEY_STEP_DEG
+                c = [cost(float(tilt), swing + d) for d in (-h, 0.0, h)]
+                curve = c[0] + c[2] - 2.0 * c[1]
+                shift = 0.5 * h * (c[0] - c[2]) / curve if curve > 0 else 0.0
+                shift = float(np.clip(shift, -h, h))
+                if curve > 0:
+                    low = c[1] - 0.25 * (c[0] - c[2]) * shift / h
+                else:
+                    k = int(np.argmin(c))
+                    low, shift = c[k], (k - 1) * h
+                swing += shift
+                if best is None or low < best[0]:
+                    best = (low, float(tilt), swing)
+    if best is None:
+        return None
+    rel = turned_in_plane(base, best[1], best[2])
+    assert rel is not None
+    return cost(best[1], best[2]), rel
+
+
 def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
                      sensitivities: NDArray[np.float64] | None = None,
                      saturated: NDArray[np.bool_] | None = None) -> PoseFit:
@@ -242,6 +304,15 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         evals += 1
         scored.append((float(r @ r), rel, x))
     scored.sort(key=lambda item: item[0])
+    # the valley of the in-plane angles followed about the preset's capture and the best start
+    for rel, x in (starts[0], scored[0][1:]):
+        base = apply_params(rel, x)
+        res = residuals_at(base, np.zeros(N_PARAMS), *STAGES[0])
+        found = _valley_start(base, res)
+        evals += res.evaluations
+        if found is not None:
+            scored.append((found[0], found[1], np.zeros(N_PARAMS)))
+    scored.sort(key=lambda item: item[0])
     # The best few starts each get the coarse fit: a start that explains the photo best as it
     # stands can still lead into a worse valley (a streak read as second order).
     best: tuple[float, RelativePose, NDArray[np.float64]] | None = None
@@ -251,6 +322,16 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         if best is None or cost < best[0]:
             best = (cost, rel, x)
     assert best is not None
+    # ...and about the best fit: LM stops where it enters the valley, not at its deepest point
+    base = apply_params(best[1], best[2])
+    res = residuals_at(base, np.zeros(N_PARAMS), *STAGES[0])
+    found = _valley_start(base, res)
+    evals += res.evaluations
+    if found is not None and found[0] < best[0]:
+        x, cost, n = fit_stage(found[1], np.zeros(N_PARAMS), *STAGES[0])
+        evals += n
+        if cost < best[0]:
+            best = (cost, found[1], x)
     _, rel0, x = best
     for node_nm, colour_weight in STAGES[1:]:
         x, _, n = fit_stage(rel0, x, node_nm, colour_weight)

@@ -28,7 +28,7 @@ from .grating import COS_EPS
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
            "aimed_at", "mirror_point", "with_glint_at", "project", "near_axis", "with_lamp_distance",
-           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between"]
+           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between", "turned_in_plane"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
 
@@ -221,6 +221,38 @@ def with_lamp_distance(rel: RelativePose, distance_mm: float) -> RelativePose:
     if norm <= 0:
         return rel
     return replace(rel, lamp_mm=rel.disc_centre_mm + lamp * (distance_mm / norm))
+
+
+MIN_PLANE_SINE = math.sin(math.radians(2.0))  # lens and lamp closer than this, seen from the disc: no plane
+
+
+def _turn_about(axis: NDArray[np.float64], angle_deg: float) -> NDArray[np.float64]:
+    """Rotation by ``angle_deg`` about the unit ``axis`` (Rodrigues)."""
+    a = math.radians(angle_deg)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * k @ k
+
+
+def turned_in_plane(rel: RelativePose, tilt_deg: float, swing_deg: float) -> RelativePose | None:
+    """``rel`` with the disc tilted by ``tilt_deg`` and the lamp turned by 2·tilt + ``swing_deg``
+    about the disc centre, both about the normal of the plane of incidence (the plane through
+    the disc centre, the lens and the lamp). The lamp turns twice as far as the disc for the
+    reason :func:`apply_params` gives; a positive swing takes it away from the lens.
+
+    These are the two angles that slide the wavelength axis along an oblique streak (a degree
+    moves it by ~40 nm) without moving the streak sideways: a lamp swung or a disc tilted about
+    that normal. None where the lamp is seen from the disc within MIN_PLANE_SINE of the lens
+    (no plane of incidence)."""
+    centre = np.asarray(rel.disc_centre_mm, dtype=np.float64)
+    lamp = np.asarray(rel.lamp_mm, dtype=np.float64) - centre
+    axis = np.cross(-centre / np.linalg.norm(centre), lamp / np.linalg.norm(lamp))
+    sine = float(np.linalg.norm(axis))
+    if sine < MIN_PLANE_SINE:
+        return None
+    axis = axis / sine
+    tilt = _turn_about(axis, tilt_deg)
+    lamp = _turn_about(axis, 2.0 * tilt_deg + swing_deg) @ lamp
+    return replace(rel, disc_normal=tilt @ rel.disc_normal, disc_x=tilt @ rel.disc_x, lamp_mm=centre + lamp)
 
 
 @dataclass(frozen=True)
