@@ -7,13 +7,17 @@ Used by :func:`.analysis.prepare` for every preset. The preset is only a start. 
    ellipse allows (:mod:`.rim_ellipse`); each of those moved by the rainbow's own colours
    (:mod:`.streak_colours`); for a camera above the disc the near-axis fit
    (:func:`.pose_fit.fit_pose`); and where the zero-order glint is seen (clipped), poses that put
-   the lamp's mirror image exactly there, with the disc centre tried along the arcs' axis;
+   the lamp's mirror image exactly there, with the disc centre sought along the arcs' axis
+   (:func:`_glint_line_start`);
 2. the best start by the smooth self-consistency (:mod:`.profile_residuals`) on a coarse λ₁
    profile (5 nm nodes): a profile too coarse for lamp lines does not lock onto them;
 3. Levenberg–Marquardt on all eight parameters (:func:`.relative_pose.apply_params`), first on
    the coarse profile with the camera's colour at full weight (it pins the wavelength axis along
    a single streak), then on a finer profile with the colour at 0.3 (the lamp's spectrum within
-   the lobe biases the colour by ~1 nm; the self-consistency is unbiased).
+   the lobe biases the colour by ~1 nm; the self-consistency is unbiased). The best start from
+   the glint's line is carried through both stages beside the overall best, and the finer
+   profile picks between them (a tilted disc near the axis and a flat one with the lamp further
+   off are told apart there, not on the coarse profile).
 
 The zero-order glint and clipped pixels are left out of every comparison. The result is a
 :class:`.pose_fit.PoseFit` whose ``known_scene`` is the fitted capture; its residual and null
@@ -24,6 +28,8 @@ refusals mean what they always meant.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -92,7 +98,15 @@ SWUNG_STARTS = 2  # the deepest teeth of that scan are followed along the tilt
 TILT_DEG = 6.0  # ...this far either way
 TILT_STEP_DEG = 0.5
 VALLEY_STEP_DEG = 0.25  # the swing sampled this far either side of the valley's line at each tilt
-GLINT_CENTRE_OFFSETS_MM = (2, 4, 6, 8, 10, 12, 14, 16, 20, 24)  # disc centre tried this far along the arcs
+# The disc centre along the arcs' axis (_glint_line_start). A tilt of θ under a near-axis camera
+# puts the centre D·tan θ from the glint: 24 mm is 6.5° at 210 mm. The coarse cost's valley in
+# that offset is ~2 mm wide (cd-default, 5°: 7e-4 at the true 18.4 mm, 1.6e-2 and 7e-2 at 16 and
+# 20 mm; synthetic spectra), so it is sampled every half millimetre and its bottom found by a
+# parabola.
+GLINT_LINE_MM = 24.0
+GLINT_LINE_STEP_MM = 0.5
+AIM_GRID_DEG = 0.15  # the line's best turned this far about the lens either way (glint centroid error)...
+AIM_GRID_STEP_DEG = 0.05  # ...in these steps
 
 
 class _Residuals:
@@ -147,8 +161,11 @@ def _without_glint(subset: NDArray[np.int64], scene: Scene) -> NDArray[np.int64]
 
 def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
             sensitivities: NDArray[np.float64] | None, saturated: NDArray[np.bool_] | None,
-            outline: Ellipse | None = None) -> tuple[list[tuple[RelativePose, NDArray[np.float64]]], int]:
-    """Candidate starting poses (see the module docstring, step 1) and the evaluations spent."""
+            outline: Ellipse | None = None
+            ) -> tuple[list[tuple[RelativePose, NDArray[np.float64]]], list[_GlintLine], int]:
+    """Candidate starting poses (see the module docstring, step 1), the lines along which the
+    disc centre is sought where the glint is seen (:func:`_glint_line_start`), and the
+    evaluations spent."""
     height, width, _ = rgb.shape
     size = (width, height)
     evals = 0
@@ -190,22 +207,94 @@ def _starts(rgb: NDArray[np.float64], preset: Preset, focal_px: float,
         bases.append(with_lamp_distance(relative_pose(near.scene(preset, size)), lamp_distance))
         starts.append((bases[-1], np.zeros(N_PARAMS)))
     glint = glint_px(rgb, np.asarray(saturated)) if saturated is not None and np.any(saturated) else None
+    lines: list[_GlintLine] = []
     if glint is not None:
         # The clipped glint is where the disc mirrors the lamp into the lens: a direct sighting
         # of the lamp's direction. The disc centre is on the line the arcs follow through it.
         g_small = ((glint[0] + 0.5) / factor - 0.5, (glint[1] + 0.5) / factor - 0.5)
         px_per_mm = focal_px / nominal.distance_mm
         angle, strength = _axis_of_arcs(lum, g_small, 15 * px_per_mm / factor, 60 * px_per_mm / factor)
-        axis = np.array([-math.sin(angle), math.cos(angle)])
-        offsets = [0.0] if strength < ARCS_STRENGTH else \
-            [0.0, *[sign * t for t in GLINT_CENTRE_OFFSETS_MM for sign in (1.0, -1.0)]]
-        for base in bases:
-            for t in offsets:
-                centre = (glint[0] + t * px_per_mm * axis[0], glint[1] + t * px_per_mm * axis[1])
-                cand = with_glint_at(aimed_at(base, centre, size, focal_px), glint, size, focal_px)
-                if cand is not None:
-                    starts.append((cand, np.zeros(N_PARAMS)))
-    return starts, evals
+        axis = (-math.sin(angle), math.cos(angle)) if strength >= ARCS_STRENGTH else None
+        lines = [_GlintLine(base, glint, axis, px_per_mm, size, focal_px) for base in bases]
+    return starts, lines, evals
+
+
+@dataclass(frozen=True)
+class _GlintLine:
+    """Captures with the mirror glint at a seen pixel and the disc centre ``t`` mm from it along
+    the arcs' axis (``axis``, a (row, col) unit vector; None: full rings, the centre is the glint's)."""
+
+    base: RelativePose
+    glint: tuple[float, float]
+    axis: tuple[float, float] | None
+    px_per_mm: float
+    size: tuple[int, int]
+    focal_px: float
+
+    def offsets(self) -> NDArray[np.float64]:
+        if self.axis is None:
+            return np.zeros(1)
+        return np.arange(-GLINT_LINE_MM, GLINT_LINE_MM + 1e-9, GLINT_LINE_STEP_MM)
+
+    def at(self, t: float) -> RelativePose | None:
+        axis = (0.0, 0.0) if self.axis is None else self.axis
+        centre = (self.glint[0] + t * self.px_per_mm * axis[0], self.glint[1] + t * self.px_per_mm * axis[1])
+        return with_glint_at(aimed_at(self.base, centre, self.size, self.focal_px), self.glint, self.size,
+                             self.focal_px)
+
+
+def _glint_line_start(line: _GlintLine, residuals_for: Callable[[RelativePose], _Residuals]
+                      ) -> tuple[float, RelativePose, int] | None:
+    """The deepest point of the coarse cost along ``line``: (cost, capture, evaluations), or None.
+
+    Why: a disc tilted 5° under a near-axis camera puts the glint ~18 mm from the disc centre and
+    the rings become arcs about it. A centre 2 mm off along the arcs (a few tried offsets) costs
+    20–30× the true one, and LM from there settles 0.3° off in the aim and 1° in the camera's
+    angle, where the track edges cut the rings in the wrong places (synthetic spectra: λ₁ 1 nm
+    off, MAE 0.26 against 0.06 from the true pose). Every
+    candidate mirrors the lamp at the same pixel, so one glint-free pixel subset serves them all."""
+    candidates = [(float(t), line.at(float(t))) for t in line.offsets()]
+    candidates = [(t, rel) for t, rel in candidates if rel is not None]
+    if not candidates:
+        return None
+    res = residuals_for(candidates[0][1])
+
+    def cost(rel: RelativePose) -> float:
+        r = res.at(rel)
+        return float(r @ r)
+
+    costs = np.array([cost(rel) for _, rel in candidates])
+    k = int(np.argmin(costs))
+    best = (float(costs[k]), candidates[k][1])
+    if 0 < k < costs.size - 1:
+        curve = costs[k - 1] + costs[k + 1] - 2.0 * costs[k]
+        if curve > 0:
+            shift = 0.5 * (costs[k - 1] - costs[k + 1]) / curve
+            rel = line.at(candidates[k][0] + shift * GLINT_LINE_STEP_MM)
+            if rel is not None:
+                c = cost(rel)
+                if c < best[0]:
+                    best = (c, rel)
+    return (*_aim_refined(best, cost), res.evaluations)
+
+
+def _aim_refined(best: tuple[float, RelativePose], cost: Callable[[RelativePose], float]
+                 ) -> tuple[float, RelativePose]:
+    """``best`` turned about the lens on a small grid of aims, the cheapest kept. Why: the clipped
+    glint's centroid is ~2 px (0.1°) off the mirror point, and a 0.1° aim alone costs ~1e-2 on
+    the coarse cost (more than the pose's whole misfit), enough to send LM 1.6° along the valley."""
+    steps = np.arange(-AIM_GRID_DEG, AIM_GRID_DEG + 1e-9, AIM_GRID_STEP_DEG)
+    for a in steps:
+        for b in steps:
+            if a == 0.0 and b == 0.0:
+                continue
+            x = np.zeros(N_PARAMS)
+            x[0], x[1] = a, b
+            rel = apply_params(best[1], x)
+            c = cost(rel)
+            if c < best[0]:
+                best = (c, rel)
+    return best
 
 
 def _valley_start(base: RelativePose, res: _Residuals) -> tuple[float, RelativePose] | None:
@@ -260,6 +349,24 @@ def _valley_start(base: RelativePose, res: _Residuals) -> tuple[float, RelativeP
     return cost(best[1], best[2]), rel
 
 
+def _followed(cost: float, rel: RelativePose, x: NDArray[np.float64],
+              residuals_at: Callable[..., _Residuals],
+              fit_stage: Callable[..., tuple[NDArray[np.float64], float, int]]
+              ) -> tuple[float, RelativePose, NDArray[np.float64], int]:
+    """A coarse fit followed along the in-plane valley (:func:`_valley_start`) and fitted again
+    from its deepest point where that is lower: (cost, start, parameters, evaluations)."""
+    base = apply_params(rel, x)
+    res = residuals_at(base, np.zeros(N_PARAMS), *STAGES[0])
+    found = _valley_start(base, res)
+    evals = res.evaluations
+    if found is not None and found[0] < cost:
+        y, cost_y, n = fit_stage(found[1], np.zeros(N_PARAMS), *STAGES[0])
+        evals += n
+        if cost_y < cost:
+            return cost_y, found[1], y, evals
+    return cost, rel, x, evals
+
+
 def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
                      sensitivities: NDArray[np.float64] | None = None,
                      saturated: NDArray[np.bool_] | None = None) -> PoseFit:
@@ -274,7 +381,7 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         # room light on the disc but not around it: the photo-wide offset missed it
         rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
     flat = rgb.reshape(-1, 3)
-    starts, evals = _starts(rgb, preset, focal_px, sensitivities, saturated, outline)
+    starts, lines, evals = _starts(rgb, preset, focal_px, sensitivities, saturated, outline)
     blur = colour_blur_nm(preset, preset.light.lobe_sigma, focal_px)
     subset = _subset(rgb, saturated, LM_PIXELS)
 
@@ -304,6 +411,19 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         evals += 1
         scored.append((float(r @ r), rel, x))
     scored.sort(key=lambda item: item[0])
+    # the disc centre along the arcs through the glint, from each base; the best of each line always
+    # gets a coarse fit: an untilted disc with the lamp 10° off explains a tilted disc's arcs better
+    # before LM (phone-near-axis, 5°: 3.5e-3 against 1.3e-2 for the true tilt) but not after it
+    # (9e-4 against 6e-4), and the glint's centroid leaves the aim ~0.1° off, which alone costs ~1e-2
+    on_line: list[tuple[float, RelativePose, NDArray[np.float64]]] = []
+    for line in lines:
+        found_on_line = _glint_line_start(line, lambda rel: residuals_at(rel, np.zeros(N_PARAMS), *STAGES[0]))
+        if found_on_line is not None:
+            evals += found_on_line[2]
+            on_line.append((found_on_line[0], found_on_line[1], np.zeros(N_PARAMS)))
+    on_line.sort(key=lambda item: item[0])
+    scored.extend(on_line)
+    scored.sort(key=lambda item: item[0])
     # the valley of the in-plane angles followed about the preset's capture and the best start
     for rel, x in (starts[0], scored[0][1:]):
         base = apply_params(rel, x)
@@ -315,27 +435,31 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     scored.sort(key=lambda item: item[0])
     # The best few starts each get the coarse fit: a start that explains the photo best as it
     # stands can still lead into a worse valley (a streak read as second order).
-    best: tuple[float, RelativePose, NDArray[np.float64]] | None = None
-    for _, rel, x in scored[:TRIED_STARTS]:
-        x, cost, n = fit_stage(rel, x, *STAGES[0])
+    tried = scored[:TRIED_STARTS]
+    tried += [item for item in on_line if not any(item is other for other in tried)]
+    fits = []
+    for item in tried:
+        x, cost, n = fit_stage(item[1], item[2], *STAGES[0])
         evals += n
-        if best is None or cost < best[0]:
-            best = (cost, rel, x)
-    assert best is not None
-    # ...and about the best fit: LM stops where it enters the valley, not at its deepest point
-    base = apply_params(best[1], best[2])
-    res = residuals_at(base, np.zeros(N_PARAMS), *STAGES[0])
-    found = _valley_start(base, res)
-    evals += res.evaluations
-    if found is not None and found[0] < best[0]:
-        x, cost, n = fit_stage(found[1], np.zeros(N_PARAMS), *STAGES[0])
+        fits.append((cost, item[1], x, any(item is other for other in on_line)))
+    best = min(fits, key=lambda fit: fit[0])
+    line_best = min((fit for fit in fits if fit[3]), key=lambda fit: fit[0], default=best)
+    # ...and about the best fit: LM stops where it enters the valley, not at its deepest point.
+    # The best fit from the glint's line is followed too and finished as well: a disc tilted 5°
+    # near the axis and the same disc flat with the lamp 10° off differ by less on the coarse
+    # profile (LM from near the truth stopped at 1.2e-3, the flat reading at 9e-4) than on the
+    # fine one (4.4e-4 at the truth, 5.0e-4 flat); the fine stage decides.
+    finalists = [best[:3]] if line_best is best else [best[:3], line_best[:3]]
+    finished = []
+    for cost0, rel0, x in finalists:
+        cost0, rel0, x, n = _followed(cost0, rel0, x, residuals_at, fit_stage)
         evals += n
-        if cost < best[0]:
-            best = (cost, found[1], x)
-    _, rel0, x = best
-    for node_nm, colour_weight in STAGES[1:]:
-        x, _, n = fit_stage(rel0, x, node_nm, colour_weight)
-        evals += n
+        cost = cost0
+        for node_nm, colour_weight in STAGES[1:]:
+            x, cost, n = fit_stage(rel0, x, node_nm, colour_weight)
+            evals += n
+        finished.append((cost, rel0, x))
+    _, rel0, x = min(finished, key=lambda fit: fit[0])
     rel = apply_params(rel0, x)
     scene = scene_from_relative(rel, preset, size, focal_px)
     fine = _subset(rgb, saturated, FINE_PIXELS)

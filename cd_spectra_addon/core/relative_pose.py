@@ -28,7 +28,7 @@ from .grating import COS_EPS
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
            "aimed_at", "mirror_point", "with_glint_at", "project", "near_axis", "with_lamp_distance",
-           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between", "turned_in_plane"]
+           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between", "turned_in_plane", "plane_axis"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
 
@@ -224,6 +224,10 @@ def with_lamp_distance(rel: RelativePose, distance_mm: float) -> RelativePose:
 
 
 MIN_PLANE_SINE = math.sin(math.radians(2.0))  # lens and lamp closer than this, seen from the disc: no plane
+# A lamp seen from the disc within this of the lens is beside it (a near-axis capture: the
+# near-axis presets put it 0–3.3° away, the oblique ones 20–45°): there a tilted disc, not the
+# lamp, sets the plane the pattern moves in.
+BESIDE_LENS_DEG = 10.0
 
 
 def _turn_about(axis: NDArray[np.float64], angle_deg: float) -> NDArray[np.float64]:
@@ -233,23 +237,43 @@ def _turn_about(axis: NDArray[np.float64], angle_deg: float) -> NDArray[np.float
     return np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * k @ k
 
 
+def plane_axis(rel: RelativePose) -> NDArray[np.float64] | None:
+    """Unit normal of the plane of incidence at the disc centre, or None where there is none.
+
+    The plane through the lens and the lamp; but with the lamp beside the lens (within
+    BESIDE_LENS_DEG) and the disc tilted further from the mirror direction (the half-way vector
+    between lens and lamp) than the lamp is from the lens, the plane through the disc's normal and
+    that mirror direction: a disc tilted 5° under a camera with a lamp beside it swings the
+    mirror glint 10° off the disc centre along that plane, and the rings become arcs whose axis
+    lies in it. None where both planes are undefined (angles under MIN_PLANE_SINE)."""
+    centre = np.asarray(rel.disc_centre_mm, dtype=np.float64)
+    lens = -centre / np.linalg.norm(centre)
+    lamp = np.asarray(rel.lamp_mm, dtype=np.float64) - centre
+    lamp = lamp / np.linalg.norm(lamp)
+    axis = np.cross(lens, lamp)
+    sine = float(np.linalg.norm(axis))
+    if sine < math.sin(math.radians(BESIDE_LENS_DEG)):
+        half = (lens + lamp) / np.linalg.norm(lens + lamp)
+        tilted = np.cross(np.asarray(rel.disc_normal, dtype=np.float64), half)
+        if float(np.linalg.norm(tilted)) > sine:
+            axis, sine = tilted, float(np.linalg.norm(tilted))
+    return axis / sine if sine >= MIN_PLANE_SINE else None
+
+
 def turned_in_plane(rel: RelativePose, tilt_deg: float, swing_deg: float) -> RelativePose | None:
     """``rel`` with the disc tilted by ``tilt_deg`` and the lamp turned by 2·tilt + ``swing_deg``
-    about the disc centre, both about the normal of the plane of incidence (the plane through
-    the disc centre, the lens and the lamp). The lamp turns twice as far as the disc for the
-    reason :func:`apply_params` gives; a positive swing takes it away from the lens.
+    about the disc centre, both about the normal of the plane of incidence (:func:`plane_axis`;
+    for an untilted disc, the plane through the disc centre, the lens and the lamp). The lamp
+    turns twice as far as the disc for the reason :func:`apply_params` gives.
 
     These are the two angles that slide the wavelength axis along an oblique streak (a degree
     moves it by ~40 nm) without moving the streak sideways: a lamp swung or a disc tilted about
-    that normal. None where the lamp is seen from the disc within MIN_PLANE_SINE of the lens
-    (no plane of incidence)."""
+    that normal. None where there is no plane of incidence (:func:`plane_axis`)."""
+    axis = plane_axis(rel)
+    if axis is None:
+        return None
     centre = np.asarray(rel.disc_centre_mm, dtype=np.float64)
     lamp = np.asarray(rel.lamp_mm, dtype=np.float64) - centre
-    axis = np.cross(-centre / np.linalg.norm(centre), lamp / np.linalg.norm(lamp))
-    sine = float(np.linalg.norm(axis))
-    if sine < MIN_PLANE_SINE:
-        return None
-    axis = axis / sine
     tilt = _turn_about(axis, tilt_deg)
     lamp = _turn_about(axis, 2.0 * tilt_deg + swing_deg) @ lamp
     return replace(rel, disc_normal=tilt @ rel.disc_normal, disc_x=tilt @ rel.disc_x, lamp_mm=centre + lamp)
