@@ -76,10 +76,12 @@ sample-photo: setup
 	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 
 # Rebuild models/ from nothing (Cycles basis cubes of the buildable set-ups, dataset, training, ONNX
-# export, fusion and per-band choice on synthetic photos), seeded; about an hour on 2 cores.
+# export, fusion and per-band choice on synthetic photos), seeded. 300 photos per geometry (17 geometries):
+# each photo runs the product's whole inverse path at ~0.8 s per core, so 1000 would take ~2.5 h on 2 cores.
+MODEL_SAMPLES_PER_CUBE ?= 300
 model: setup
 	$(PY) -m training.simulation.render_cubes --set buildable --engine cycles
-	$(PY) -m training.learning.train --set buildable
+	$(PY) -m training.learning.train --set buildable --n-per-cube $(MODEL_SAMPLES_PER_CUBE)
 
 # Re-choose the fusion and, per band, network vs physics + prior for the model in models/ (synthetic
 # photos of the geometries it was trained on; no retraining), then the real-lamp check of that choice.
