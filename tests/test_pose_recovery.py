@@ -189,6 +189,22 @@ def test_profile_residuals_are_finite_for_any_pixels(values, lam, amp, step):
     assert float(np.sum(r[: values.size] ** 2)) <= float(np.sum(values ** 2)) * (1 + 1e-9) + 1e-12
 
 
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, (12, 3), elements=st.floats(0.0, 1.0)),
+       arrays(np.float64, 12, elements=st.floats(480.0, 520.0)),
+       arrays(np.float64, 12, elements=st.floats(0.0, 1.0)), st.floats(-170.0, 0.0))
+def test_profile_residuals_survive_a_vanishing_lobe(values, lam, amp, exponent):
+    """A pose far off puts every pixel in the lobe's far tail (amplitudes ~1e-155, squares in
+    the denormals): the residuals are still finite and the same as for the amplitudes scaled
+    up (the profile absorbs a common scale). Before, the pivots underflowed to zero."""
+    grid = profile_residuals.ProfileGrid.with_camera(300.0, 1000.0, 5.0, CAMERA.sensitivities, 3.0)
+    small = profile_residuals.profile_residuals(values, lam, amp * 10.0 ** exponent, grid)
+    assert np.all(np.isfinite(small))
+    if np.max(amp) * 10.0 ** exponent > 0.0:
+        same = profile_residuals.profile_residuals(values, lam, amp, grid)
+        assert np.allclose(small, same, rtol=1e-6, atol=1e-9)
+
+
 @settings(max_examples=8, deadline=None)
 @given(arrays(np.float64, (48, 48, 3), elements=st.floats(0.0, 1.0)),
        st.sampled_from(["cd-default", "tripod-oblique"]))

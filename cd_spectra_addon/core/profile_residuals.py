@@ -116,6 +116,12 @@ def profile_residuals(values: NDArray[np.float64], lambda1_nm: NDArray[np.float6
     k0i = np.where(inside, k0, 0)
     f = np.where(inside, t - k0, 0.0)
     a = np.where(inside, amplitude, 0.0)
+    # Amplitudes scaled to peak 1: the profile absorbs the scale (prediction and colour terms are
+    # unchanged), and a pose whose lobe is ~1e-155 everywhere no longer underflows the pivots
+    # (the evaluation once died of a division by zero there).
+    peak = float(np.max(a)) if a.size else 0.0
+    if peak > 0.0:
+        a = a / peak
     w0, w1 = a * (1.0 - f), a * f
     n = grid.size
     v = values
