@@ -28,6 +28,8 @@ FAKE_ESTIMATOR = textwrap.dedent('''
                        working_space="Linear Rec.709", progress=None):
         if "bad" in path:
             raise PhotoError("the photo is completely black\\n(check the lens cap)")
+        if "crash" in path:  # a bug deep in the estimator (make eval once met one: a zero pivot)
+            raise ZeroDivisionError("float division by zero")
         t = 2000.0 + 1000.0 * (len(path) % 5)
         wl = np.arange(380.0, 781.0, 5.0) * 1e-9
         spd = 1.0 / (wl**5 * (np.exp(1.4388e-2 / (wl * t)) - 1.0))
@@ -156,6 +158,19 @@ def test_bad_input_exits_2_with_one_error_line_and_no_files(tmp_path: Path, args
     assert proc.stdout == ""
     assert not out.exists() and not blend.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.jpg", "good.jpg"]
+
+
+def test_a_bug_exits_3_with_one_line_and_no_files(tmp_path: Path) -> None:
+    """An internal error is not the user's fault and not a traceback: one line saying it is a
+    bug, status 3, and no output files (whole-or-nothing)."""
+    good, crash = _photos(tmp_path, "good.jpg", "crash.jpg")
+    out = tmp_path / "out.json"
+    proc = run_cli("estimate", good, crash, "--json", str(out))
+    assert proc.returncode == 3, (proc.stdout, proc.stderr)
+    lines = _stderr_lines(proc)
+    assert len(lines) == 1 and lines[0].startswith("error: internal error in CD Spectra (ZeroDivisionError")
+    assert "Traceback" not in proc.stderr and "bug" in lines[0]
+    assert not out.exists()
 
 
 def test_error_names_the_photo(tmp_path: Path) -> None:

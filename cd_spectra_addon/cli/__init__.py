@@ -3,7 +3,8 @@
 One module per command, each with ``NAME``, ``HELP``, ``add_arguments(parser)`` and
 ``run(args, out) -> exit status``; :data:`COMMAND_NAMES` lists them (a new command is one name
 there).
-Bad input exits with status 2 and a single ``error: ...`` line on stderr, and writes nothing.
+Bad input exits with status 2 and a single ``error: ...`` line on stderr, and writes nothing; an
+internal error (a bug) exits with status 3 and one line saying so, never a traceback.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import sys
 from collections.abc import Callable, Sequence
 from types import ModuleType
 
-from .common import EXIT_BAD_INPUT, Parser, UsageError
+from .common import EXIT_BAD_INPUT, EXIT_INTERNAL, Parser, UsageError
 
 # The commands, in the order `--help` lists them: a module of this package each.
 COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "plan", "presets", "cameras",
@@ -46,6 +47,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         message = " ".join(str(exc).split())  # exactly one line
         print(f"error: {message}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug, not the input: one line, no traceback; outputs are whole-or-nothing
+        detail = " ".join(f"{type(exc).__name__}: {exc}".split())
+        print(f"error: internal error in CD Spectra ({detail}); nothing was written. This is a bug: please "
+              "report it with the photo and the command", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
-__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "UsageError", "build_parser", "main", "run"]
+__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "UsageError", "build_parser", "main", "run"]

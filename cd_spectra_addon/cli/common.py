@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import NoReturn
 
 EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 3  # a bug in CD Spectra, not the user's input
 STDOUT = "-"  # ``--json -``: the machine-readable output goes to stdout
 
 

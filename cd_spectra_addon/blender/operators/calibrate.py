@@ -79,6 +79,10 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
             except (CDSpectraError, ValueError, OSError) as exc:
                 self.report({"ERROR"}, f"Calibration failed: {exc}")
                 return {"CANCELLED"}
+            except Exception as exc:  # a bug, not the photo: say so; nothing was saved
+                self.report({"ERROR"}, f"Calibration failed: internal error in CD Spectra ({type(exc).__name__}: "
+                            f"{exc}); nothing was saved. This is a bug: please report it with the photo")
+                return {"CANCELLED"}
         settings.calibration_photo = self.filepath or settings.calibration_photo
         settings.calibration_name = name
         saved_as = Path(profile).stem  # the profile's name is its file's (the core makes names file-safe)

@@ -87,6 +87,10 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
             except ValueError as exc:  # colour conversion refused the SPD
                 self.report({"ERROR"}, f"Cannot use this estimate: {exc}")
                 return {"CANCELLED"}
+            except Exception as exc:  # a bug, not the photo: say so; the scene is not touched yet
+                self.report({"ERROR"}, f"Internal error in CD Spectra ({type(exc).__name__}: {exc}); the scene "
+                            "was not changed. This is a bug: please report it with the photo")
+                return {"CANCELLED"}
             update(0.95, "building the spectral node group")
             group = ensure_node_group(spd, info, state.estimate_meta(data))
         state.store_estimate(settings, data)
