@@ -15,8 +15,8 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from cd_spectra_addon.core.errors import PhotoError
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.raw_files import SATURATION_FRACTION
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.photo.raw_files import SATURATION_FRACTION
 from training.simulation.dng import dng_bytes, write_dng
 
 RNG = np.random.default_rng(11)
@@ -145,11 +145,11 @@ def test_dng_of_a_rendered_capture_estimates_like_the_exr(tmp_path):
     """Same capture as a Bayer DNG (noise per photosite) and as an EXR: the raw path — binning,
     levels, focal length from FocalPlaneXResolution per photosite, camera from EXIF — gives the
     same spectrum as the linear float file."""
-    from cd_spectra_addon.core.illuminants import known_lamp_spd
-    from cd_spectra_addon.core.capture import Scene, load_preset
-    from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-    from cd_spectra_addon.core.colour import compare_spds
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+    from cd_spectra_addon.core.scene.capture import Scene, load_preset
+    from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+    from cd_spectra_addon.core.spectra.colour import compare_spds
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
     from training.simulation import photo
     from training.simulation.dng import mosaic
     from training.simulation.render_numpy import render_cube
@@ -178,7 +178,7 @@ def test_dng_of_a_rendered_capture_estimates_like_the_exr(tmp_path):
 @settings(max_examples=300, deadline=None)
 @given(data=st.binary(max_size=600), prefix=st.sampled_from([b"", b"II*\x00", b"MM\x00*", b"II*\x00\x08\x00\x00\x00"]))
 def test_tiff_tag_reader_never_fails_on_any_bytes(data, prefix):
-    from cd_spectra_addon.core.tiff_tags import find_tiff_tags, read_tiff_tags
+    from cd_spectra_addon.core.photo.tiff_tags import find_tiff_tags, read_tiff_tags
 
     assert isinstance(read_tiff_tags(prefix + data), dict)
     assert isinstance(find_tiff_tags(data + prefix + data), dict)

@@ -14,20 +14,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.analysis import prepare
-from cd_spectra_addon.core.calibration import Calibration, load_calibration, new_metadata, save_calibration
-from cd_spectra_addon.core.calibration_shot import calibrate_photo, fit_calibration
-from cd_spectra_addon.core.camera_fit import CameraPrior, camera_prior, fit_sensitivities
-from cd_spectra_addon.core.cameras import GENERIC_CAMERA, CameraProfile, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
-from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.calibration.calibration import Calibration, load_calibration, new_metadata, save_calibration
+from cd_spectra_addon.core.inverse.calibration_shot import calibrate_photo, fit_calibration
+from cd_spectra_addon.core.calibration.camera_fit import CameraPrior, camera_prior, fit_sensitivities
+from cd_spectra_addon.core.spectra.cameras import GENERIC_CAMERA, CameraProfile, load_camera
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import camera_for, camera_prior_for, estimate_image
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import load_model
-from cd_spectra_addon.core.pose_fit import PoseFit
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.inverse.estimate import camera_for, camera_prior_for, estimate_image
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import load_model
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from training.learning.dataset import camera_split
 from training.learning.spd_prior import sample_spds
 from training.simulation import photo
@@ -147,8 +147,8 @@ def test_bad_priors_and_dark_photos_are_refused(capture):
         CameraPrior.from_profiles([np.ones((80, 3)), np.ones((80, 3))])
     scene, cube, meter = capture
     image, _ = photo.synthesize(cube, CIE_A, load_camera(HELD_CAMERA), 0.9, 0.01, np.random.default_rng(0), meter)
-    from cd_spectra_addon.core.readout import extract_readout
-    from cd_spectra_addon.core.forward_matrix import bin_response
+    from cd_spectra_addon.core.readout.readout import extract_readout
+    from cd_spectra_addon.core.readout.forward_matrix import bin_response
 
     readout = extract_readout(image, None, scene)
     response = bin_response(scene, readout)

@@ -15,17 +15,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.calibration import Calibration, load_calibration, new_metadata, save_calibration
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.calibration_shot import calibrate_photo, fit_calibration
-from cd_spectra_addon.core.camera_pipeline import CameraPipeline, fit_pipeline
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
-from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.calibration.calibration import Calibration, load_calibration, new_metadata, save_calibration
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.inverse.calibration_shot import calibrate_photo, fit_calibration
+from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline, fit_pipeline
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import estimate_image
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
 from training.simulation.camera_pipelines import (
     TYPICAL, InCameraStyle, in_camera_exif, pipeline_for, render_in_camera, sample_pipeline,
@@ -97,7 +97,7 @@ def test_fit_recovers_a_sampled_pipeline_from_spectral_colours():
     white = CAMERA.sensitivities.sum(axis=0) / CAMERA.sensitivities.sum()
     a = rng.uniform(0.02, 0.25, 6000)[:, None]
     native = band[rng.integers(0, band.shape[0], 6000)] * a + white * a * rng.uniform(0, 1, 6000)[:, None]
-    from cd_spectra_addon.core.srgb import srgb_decode, srgb_encode
+    from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
 
     observed = srgb_decode(np.round(srgb_encode(pipe.to_file(native)) * 255) / 255)
     fitted = fit_pipeline(observed, native * 7.0)
@@ -213,7 +213,7 @@ def test_calibration_shot_undoes_an_in_camera_jpeg(tmp_path, capture):
     ("Apple", "iPhone 15 Pro", None), ("Canon", "Canon EOS 5D Mark V", None), (None, None, None), ("", "", None),
 ])
 def test_camera_from_exif_normalises_names(make, model, profile):
-    from cd_spectra_addon.core.cameras import camera_from_exif
+    from cd_spectra_addon.core.spectra.cameras import camera_from_exif
 
     assert camera_from_exif(make, model.replace("\x00", "") if model else model) == profile
 
@@ -221,7 +221,7 @@ def test_camera_from_exif_normalises_names(make, model, profile):
 @settings(max_examples=200, deadline=None)
 @given(make=st.one_of(st.none(), st.text(max_size=40)), model=st.one_of(st.none(), st.text(max_size=60)))
 def test_camera_from_exif_never_fails_on_any_text(make, model):
-    from cd_spectra_addon.core.cameras import camera_from_exif, camera_names
+    from cd_spectra_addon.core.spectra.cameras import camera_from_exif, camera_names
 
     assert camera_from_exif(make, model) in (None, *camera_names())
 

@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.capture import Camera, Pose, Scene, load_preset, preset_from_dict
-from cd_spectra_addon.core.diffraction import pixel_diffraction
+from cd_spectra_addon.core.scene.capture import Camera, Pose, Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from tests.ring_geometry import first_order_radius_mm_on_x_axis
 from training.simulation.render_numpy import render_cube

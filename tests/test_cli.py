@@ -22,7 +22,7 @@ FAKE_ESTIMATOR = textwrap.dedent('''
     import sys, types
     import numpy as np
     from cd_spectra_addon.core.errors import PhotoError
-    from cd_spectra_addon.core.result import DiscFit, Estimate
+    from cd_spectra_addon.core.inverse.result import DiscFit, Estimate
 
     def estimate_photo(path, *, preset="cd-default", camera="Canon_EOS_5D_Mark_III", calibration=None,
                        working_space="Linear Rec.709", progress=None):
@@ -39,7 +39,7 @@ FAKE_ESTIMATOR = textwrap.dedent('''
                         disc=DiscFit((10.0, 10.0), 8.0), timing_ms={"total": 1.0}, source=path,
                         preset=preset, camera=camera, calibration=calibration, model_version="fake")
 
-    module = types.ModuleType("cd_spectra_addon.core.estimate")
+    module = types.ModuleType("cd_spectra_addon.core.inverse.estimate")
     module.estimate_photo = estimate_photo
     sys.modules[module.__name__] = module
 ''')
@@ -79,7 +79,7 @@ def test_defaults_equal_render_photo() -> None:
 
     from PIL import Image
 
-    from cd_spectra_addon.core.cameras import camera_from_exif
+    from cd_spectra_addon.core.spectra.cameras import camera_from_exif
     from training.simulation import photo
 
     ours = build_parser().parse_args(["estimate", "x.jpg"])
@@ -241,9 +241,9 @@ def test_plot_draws_every_spd_into_a_png(tmp_path: Path) -> None:
 
 def test_demo_sample_photo_estimates_its_lamp() -> None:
     """`make demo`'s photo (CIE FL11 through the forward model) comes back as FL11."""
-    from cd_spectra_addon.core.colour import compare_spds
-    from cd_spectra_addon.core.estimate import estimate_photo
-    from cd_spectra_addon.core.spectra_files import read_spectra_csv
+    from cd_spectra_addon.core.spectra.colour import compare_spds
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
+    from cd_spectra_addon.core.spectra.spectra_files import read_spectra_csv
 
     table = read_spectra_csv(ROOT / "samples" / "demo_lamps.csv")
     truth = table.on_grid()[table.names.index("CIE_FL11")]

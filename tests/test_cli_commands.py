@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 
 from test_cli import _photos, _stderr_lines, run_cli
 
-from cd_spectra_addon.core import spectra_files
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra import spectra_files
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 READERS = {
     "csv": lambda p: spectra_files.read_spectra_csv(p).on_grid()[0],
@@ -118,8 +118,8 @@ def test_mitsuba_pairs_round_trip_any_spd(tmp_path: Path, spd: list[float]) -> N
 
 
 def test_presets_and_cameras_list_what_estimate_accepts() -> None:
-    from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, camera_names
-    from cd_spectra_addon.core.capture import preset_names
+    from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, camera_names
+    from cd_spectra_addon.core.scene.capture import preset_names
 
     proc = run_cli("presets", "--json")
     assert [row["name"] for row in json.loads(proc.stdout)] == preset_names()
@@ -196,7 +196,7 @@ def test_calibrate_then_estimate_with_the_profile(tmp_path: Path, incandescent_p
 
 
 def test_compare_gives_the_cores_metrics(tmp_path: Path, result_file: Path) -> None:
-    from cd_spectra_addon.core.colour import compare_spds
+    from cd_spectra_addon.core.spectra.colour import compare_spds
 
     results = json.loads(result_file.read_text())
     reference = tmp_path / "meter.csv"

@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core import colour as cc
+from cd_spectra_addon.core.spectra import colour as cc
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTHS_NM
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 SPACES = ("Linear Rec.709", "Linear Rec.2020", "ACEScg")

@@ -12,10 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core import colour as cc
+from cd_spectra_addon.core.spectra import colour as cc
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.illuminants import daylight_spd, planck_spd
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.illuminants import daylight_spd, planck_spd
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTHS_NM
 
 import colour
 
@@ -73,7 +73,7 @@ def test_a_line_outside_rec709_is_flagged_and_clipped():
 
 def test_the_estimate_reports_the_same_colour():
     """One computation: what the estimate prints is spectral_colour of its SPD."""
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
 
     est = estimate_photo(Path(__file__).parents[1] / "samples" / "cd_photo.jpg")
     info = cc.spectral_colour(est.spd)

@@ -1,4 +1,5 @@
-"""The core is a plain numpy package: it imports without Blender or torch and has no import cycle.
+"""The core is a plain numpy package: it imports without Blender or torch, has no import cycle,
+and its sub-packages import only downwards (:data:`LAYERS`).
 
 The import graph is read from every module's AST, function-level imports included (a lazy
 import is still a dependency: it only hides a cycle until the function runs).
@@ -20,9 +21,50 @@ PACKAGE = "cd_spectra_addon.core"
 FORBIDDEN = ("bpy", "torch")
 
 
+# The core's sub-packages from the bottom up: a module may import its own package, the core's
+# root modules (errors, user_folders) and any package on a lower floor — never one on its own
+# floor or above. The same map is drawn in README's "How it works".
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("numerics",),
+    ("photo", "spectra"),
+    ("scene",),
+    ("readout", "planning"),
+    ("pose", "spectrum"),
+    ("calibration",),
+    ("inverse",),
+)
+FLOOR = {pkg: i for i, floor in enumerate(LAYERS) for pkg in floor}
+
+
 def _modules() -> dict[str, Path]:
-    return {f"{PACKAGE}.{path.stem}" if path.stem != "__init__" else PACKAGE: path
-            for path in sorted(CORE.glob("*.py"))}
+    out = {}
+    for path in sorted(CORE.rglob("*.py")):
+        parts = path.relative_to(CORE).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        out[".".join((PACKAGE, *parts))] = path
+    return out
+
+
+def _package_of(module: str) -> str | None:
+    """The core sub-package a module belongs to (None: the core's root modules)."""
+    parts = module[len(PACKAGE) + 1:].split(".") if module.startswith(PACKAGE + ".") else []
+    return parts[0] if parts and parts[0] in FLOOR else None
+
+
+def _upward(graph: dict[str, set[str]]) -> list[str]:
+    """Every import that is not downwards: into a package on the same floor or above, or from a
+    root module into any package."""
+    bad = []
+    for src, targets in graph.items():
+        a = _package_of(src)
+        for dst in sorted(targets):
+            b = _package_of(dst)
+            if b is None or a == b:
+                continue
+            if a is None or FLOOR[b] >= FLOOR[a]:
+                bad.append(f"{src} → {dst}")
+    return bad
 
 
 def _imports(name: str, path: Path) -> list[tuple[str, int]]:
@@ -91,9 +133,42 @@ def test_relative_imports_are_resolved(tmp_path: Path):
 
 def test_the_core_has_no_import_cycle():
     graph = _graph()
-    assert len(graph) >= 20 and graph[f"{PACKAGE}.estimate"], "the graph was not read"
+    assert len(graph) >= 20 and graph[f"{PACKAGE}.inverse.estimate"], "the graph was not read"
     cycle = _cycle(graph)
     assert cycle is None, "import cycle: " + " → ".join(cycle or [])
+
+
+def test_layer_check_finds_upward_imports():
+    """The check itself: same floor, upwards and root-into-package imports are caught."""
+    graph = {f"{PACKAGE}.scene.capture": {f"{PACKAGE}.readout.readout", f"{PACKAGE}.errors",
+                                          f"{PACKAGE}.spectra.grid", f"{PACKAGE}.scene.grating"},
+             f"{PACKAGE}.photo.images": {f"{PACKAGE}.spectra.colour"},
+             f"{PACKAGE}.errors": {f"{PACKAGE}.numerics.nnls"}}
+    assert _upward(graph) == [f"{PACKAGE}.scene.capture → {PACKAGE}.readout.readout",
+                              f"{PACKAGE}.photo.images → {PACKAGE}.spectra.colour",
+                              f"{PACKAGE}.errors → {PACKAGE}.numerics.nnls"]
+
+
+def test_every_core_package_has_a_floor():
+    packages = {p.name for p in CORE.iterdir() if p.is_dir() and (p / "__init__.py").is_file()}
+    assert packages == set(FLOOR), f"packages without a floor in LAYERS: {packages - set(FLOOR)}"
+
+
+def test_core_packages_import_only_downwards():
+    bad = _upward(_graph())
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_no_module_imports_another_modules_private_names():
+    """``from x import _name`` couples two modules through what one of them calls internal."""
+    bad = []
+    for path in [*sorted((REPO / "cd_spectra_addon").rglob("*.py")), *sorted((REPO / "training").rglob("*.py")),
+                 *sorted((REPO / "tools").rglob("*.py"))]:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                bad += [f"{path.relative_to(REPO)}:{node.lineno} {alias.name}" for alias in node.names
+                        if alias.name.startswith("_") and not alias.name.startswith("__")]
+    assert not bad, "private names imported:\n" + "\n".join(bad)
 
 
 @pytest.mark.parametrize("name", sorted(_modules()))

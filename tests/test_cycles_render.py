@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scipy import special
 
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from tests.ring_geometry import coaxial_first_order_radius_px, radial_peak_px
 from training.simulation import cycles_scene
 from training.simulation.render_numpy import render_cube as numpy_cube
@@ -141,7 +141,7 @@ def test_an_oblique_camera_pose_agrees_with_the_numpy_twin():
     wide at this size, and both renderers' per-pixel energies are then sampling luck."""
     from dataclasses import replace
 
-    from cd_spectra_addon.core.capture import preset_from_dict
+    from cd_spectra_addon.core.scene.capture import preset_from_dict
 
     data = load_preset("cd-default").with_image_size(64).to_dict()
     eye = [150 * math.sin(math.radians(20)), 0.0, 150 * math.cos(math.radians(20))]

@@ -11,12 +11,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
-from cd_spectra_addon.core.disc_window import (DISC_MIN_PX, DISC_TARGET_PX, PREVIEW_SIDE, disc_half_extent,
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.inverse.load import (DISC_MIN_PX, DISC_TARGET_PX, PREVIEW_SIDE, disc_half_extent,
                                                load_for_estimate)
-from cd_spectra_addon.core.estimate import estimate_photo
-from cd_spectra_addon.core.images import load_photo
+from cd_spectra_addon.core.inverse.estimate import estimate_photo
+from cd_spectra_addon.core.photo.images import load_photo
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 

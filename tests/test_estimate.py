@@ -6,19 +6,19 @@ import shutil
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core import estimate as est_mod
-from cd_spectra_addon.core.calibration_shot import calibrate_photo
-from cd_spectra_addon.core.calibration import (
+from cd_spectra_addon.core.inverse import estimate as est_mod
+from cd_spectra_addon.core.inverse.calibration_shot import calibrate_photo
+from cd_spectra_addon.core.calibration.calibration import (
     Calibration, fit_gains, list_calibrations, load_calibration, new_metadata, save_calibration,
 )
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
-from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.illuminants import known_lamp_spd
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
-from cd_spectra_addon.core.estimate import estimate_photo
-from cd_spectra_addon.core.model import MODEL_DIR, load_model
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from cd_spectra_addon.core.inverse.estimate import estimate_photo
+from cd_spectra_addon.core.spectrum.model import MODEL_DIR, load_model
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -133,7 +133,7 @@ def test_unknown_calibration_and_camera_are_specific_errors(tmp_path, capture):
 def test_calibrated_photos_use_their_own_fusion_strength():
     from types import SimpleNamespace
 
-    from cd_spectra_addon.core.estimate import _fusion
+    from cd_spectra_addon.core.inverse.estimate import _fusion
 
     model = SimpleNamespace(metadata={"fusion": {"strength": 0.3, "floor": 0.05, "calibrated_strength": 3.0,
                                                  "calibrated_floor": 0.02}})
@@ -188,8 +188,8 @@ def test_band_weight_picks_network_or_physics_per_wavelength(tmp_path, capture):
 
 def test_band_blend_puts_both_estimates_at_the_photos_brightness():
     """Two estimates that both reproduce the photo join without a jump, whatever their peaks."""
-    from cd_spectra_addon.core.readout import Readout
-    from cd_spectra_addon.core.solve import band_blend
+    from cd_spectra_addon.core.readout.readout import Readout
+    from cd_spectra_addon.core.spectrum.solve import band_blend
 
     rng = np.random.default_rng(3)
     matrix = rng.random((40, 3, 81))

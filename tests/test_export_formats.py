@@ -10,9 +10,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core import spectra_files as sf
+from cd_spectra_addon.core.spectra import spectra_files as sf
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.spectral_grid import N_BANDS
+from cd_spectra_addon.core.spectra.grid import N_BANDS
 
 
 def test_the_registry_is_pinned():

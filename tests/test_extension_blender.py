@@ -20,7 +20,7 @@ import bpy
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.spectral_grid import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
+from cd_spectra_addon.core.spectra.grid import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM
 from extension_support import (  # noqa: F401  (pytest fixtures)
     ADDON_MODULE,
     Installed,
@@ -530,7 +530,7 @@ def test_capture_panel_advice_is_the_set_up_analysis(addon: Installed) -> None:
 
 def _fake_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, fail: str | None = None) -> list:
     """Put a fake ``core.estimate`` into the installed add-on; returns the calls it got."""
-    result_mod = addon.sub("cd_spectra_addon.core.result")
+    result_mod = addon.sub("cd_spectra_addon.core.inverse.result")
     errors = addon.sub("cd_spectra_addon.core.errors")
     calls: list = []
 
@@ -547,7 +547,7 @@ def _fake_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, fail: 
             disc=result_mod.DiscFit((100.0, 100.0), 90.0), timing_ms={"total": 5.0}, source=path,
             preset=preset, camera=camera, calibration=calibration, model_version="fake-1")
 
-    module = types.ModuleType(f"{ADDON_MODULE}.cd_spectra_addon.core.estimate")
+    module = types.ModuleType(f"{ADDON_MODULE}.cd_spectra_addon.core.inverse.estimate")
     module.estimate_photo = estimate_photo
     monkeypatch.setitem(sys.modules, module.__name__, module)
     return calls
@@ -630,29 +630,29 @@ def test_export_without_estimate_is_refused(addon: Installed, tmp_path: Path) ->
 
 def test_calibration_lamps_are_the_cores(addon: Installed) -> None:
     ours = {item[0] for item in addon.sub("cd_spectra_addon.blender.properties").REFERENCE_LAMPS}
-    assert ours - {"FILE"} == set(addon.sub("cd_spectra_addon.core.illuminants").KNOWN_LAMPS)
+    assert ours - {"FILE"} == set(addon.sub("cd_spectra_addon.core.spectra.illuminants").KNOWN_LAMPS)
 
 
 def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: pytest.MonkeyPatch,
                                                tmp_path: Path) -> None:
     """The operator's side of calibration, with a stand-in for the core's photo analysis."""
-    cal = addon.sub("cd_spectra_addon.core.calibration")
+    cal = addon.sub("cd_spectra_addon.core.calibration.calibration")
     monkeypatch.setenv(cal.ENV_DIR, str(tmp_path / "profiles"))
     calls = []
 
     def calibrate_photo(path, reference_spd, name, preset, camera):
         calls.append((path, np.asarray(reference_spd), name, preset, camera))
-        gains = np.ones((len(addon.sub("cd_spectra_addon.core.readout").FEATURE_LAMBDA_NM), 3))
+        gains = np.ones((len(addon.sub("cd_spectra_addon.core.readout.readout").FEATURE_LAMBDA_NM), 3))
         return cal.save_calibration(cal.Calibration(name, gains, preset, camera, cal.new_metadata(path, "x")))
 
-    monkeypatch.setattr(addon.sub("cd_spectra_addon.core.calibration_shot"), "calibrate_photo", calibrate_photo)
+    monkeypatch.setattr(addon.sub("cd_spectra_addon.core.inverse.calibration_shot"), "calibrate_photo", calibrate_photo)
     photo = tmp_path / "bulb.jpg"
     photo.write_bytes(b"jpeg")
     assert bpy.ops.cd_spectra.calibrate(filepath=str(photo), lamp="incandescent", profile_name="my D5100") \
         == {"FINISHED"}
     (path, reference, name, preset, camera), = calls
     assert (path, name, preset, camera) == (str(photo), "my D5100", "cd-default", "Canon_EOS_5D_Mark_III")
-    assert reference == pytest.approx(addon.sub("cd_spectra_addon.core.illuminants").known_lamp_spd("incandescent"))
+    assert reference == pytest.approx(addon.sub("cd_spectra_addon.core.spectra.illuminants").known_lamp_spd("incandescent"))
     settings = bpy.context.scene.cd_spectra
     assert settings.calibration == "my_D5100"  # as the core named the file
 

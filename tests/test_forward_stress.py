@@ -18,11 +18,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core import grating
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Disc
+from cd_spectra_addon.core.scene import grating
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import Disc
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTHS_NM
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube as numpy_cube
 from training.reliability.stress import EDGE_BANDS, EXTREMES, compare_extreme, scene, twin_at_pixel_centres
@@ -69,7 +69,7 @@ def test_numpy_twin_renders_extremes_finite(name: str) -> None:
 
 def test_zero_power_bands_give_finite_photos_and_no_nan_estimate(tmp_path) -> None:
     """A lamp with power only where the camera is blind (380 and 780 nm), and one with none."""
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
 
     capture = scene(size=96)
     cube = numpy_cube(capture, supersample=2)

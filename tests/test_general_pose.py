@@ -6,9 +6,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core import ambient, pose_fit
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.readout import ambient
+
+from cd_spectra_addon.core.pose import pose_fit
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -96,7 +98,7 @@ def test_rough_offset_never_exceeds_the_dark_level(image, level):
 def test_lamp_reach_and_advice_follow_the_geometry():
     """With the camera 210 mm up, a lamp up to ~10–15 mm beside the lens puts 400–700 nm on the
     tracks (issue 10); at 60 mm the glint alone tells the user how far off the lamp is."""
-    from cd_spectra_addon.core import capture_advice
+    from cd_spectra_addon.core.planning import capture_advice
 
     preset = load_preset("cd-default")
     reach = capture_advice.lamp_reach_mm(preset)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import integrate, special
 
-from cd_spectra_addon.core import grating
-from cd_spectra_addon.core.capture import Disc, load_preset, preset_names
+from cd_spectra_addon.core.scene import grating
+from cd_spectra_addon.core.scene.capture import Disc, load_preset, preset_names
 
 CD = Disc()
 

@@ -32,7 +32,7 @@ from cd_spectra_addon.core.errors import CDSpectraError, PhotoError
 from extension_support import (  # noqa: F401  (pytest fixtures for the Blender tests)
     Installed, addon, blackbody_spd, datablock_snapshot, fake_estimate, installed_addon, scene_snapshot,
 )
-from cd_spectra_addon.core.estimate import estimate_photo
+from cd_spectra_addon.core.inverse.estimate import estimate_photo
 from training.reliability import hostile
 from training.reliability.hostile import CASES, CCT_TOLERANCE_K, TRUE_CCT_K, Case, Outcome
 
@@ -167,7 +167,7 @@ def test_bomb_is_refused_before_decoding_in_bounded_memory(runs: dict[str, Run],
 
 def test_unexpected_exceptions_are_recorded_not_hidden(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The harness would notice a non-CDSpectraError (it is not vacuous)."""
-    from cd_spectra_addon.core import estimate
+    from cd_spectra_addon.core.inverse import estimate
 
     def broken(*args: object, **kw: object) -> None:
         raise IndexError("boom")
@@ -191,7 +191,7 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
 
 def _blender_case(case: Case, run: Run, installed: Installed, monkeypatch: pytest.MonkeyPatch) -> None:
     """Point the installed add-on's estimator at what the case needs."""
-    model = installed.sub("cd_spectra_addon.core.model")
+    model = installed.sub("cd_spectra_addon.core.spectrum.model")
     monkeypatch.setattr(model, "_CACHE", {})
     if run.model_dir is not None:
         monkeypatch.setattr(model, "MODEL_DIR", run.model_dir)

@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import constants
 
-from cd_spectra_addon.core import illuminants as il
+from cd_spectra_addon.core.spectra import illuminants as il
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 
 
 def _textbook_planck(lam_nm: np.ndarray, t: float) -> np.ndarray:

@@ -18,10 +18,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image, ImageOps
 
-from cd_spectra_addon.core import images
+from cd_spectra_addon.core.photo import images
 from cd_spectra_addon.core.errors import PhotoError
-from cd_spectra_addon.core.images import DecodedPixels, LinearImage, load_photo
-from cd_spectra_addon.core.srgb import srgb_decode, srgb_encode
+from cd_spectra_addon.core.photo.images import DecodedPixels, LinearImage, load_photo
+from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
 from training.simulation.photo import encode_photo, exif_for
 
 # --- writers -------------------------------------------------------------------------------

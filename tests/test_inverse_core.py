@@ -8,15 +8,21 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import nnls as scipy_nnls
 
-from cd_spectra_addon.core import forward_matrix, pose_fit, readout, solve
-from cd_spectra_addon.core.calibration import fit_gains
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.illuminants import daylight_spd, known_lamp_spd, planck_spd
-from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.diffraction import pixel_diffraction
-from cd_spectra_addon.core.nnls import nnls_normal
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from cd_spectra_addon.core.readout import forward_matrix
+
+from cd_spectra_addon.core.pose import pose_fit
+
+from cd_spectra_addon.core.readout import readout
+
+from cd_spectra_addon.core.spectrum import solve
+from cd_spectra_addon.core.calibration.calibration import fit_gains
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.spectra.illuminants import daylight_spd, known_lamp_spd, planck_spd
+from cd_spectra_addon.core.spectra.colour import compare_spds
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.numerics.nnls import nnls_normal
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 

@@ -9,14 +9,14 @@ calibration, refusal) can no longer reach one side only.
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
-from cd_spectra_addon.core.capture import Scene, load_preset
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.errors import NoDiscError
-from cd_spectra_addon.core.estimate import _prior, camera_for, estimate_image
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import INPUT_SIZE, load_model
-from cd_spectra_addon.core.pose_fit import fit_pose
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+from cd_spectra_addon.core.inverse.estimate import _prior, camera_for, estimate_image
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
+from cd_spectra_addon.core.pose.pose_fit import fit_pose
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.learning.dataset import sample_features
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
@@ -101,9 +101,9 @@ def test_a_photo_the_product_refuses_is_not_a_training_sample(tmp_path, capture)
 def test_calibrated_in_camera_photo_gives_training_and_product_the_same_features(tmp_path, capture, camera):
     """An in-camera JPEG read with a CIE A calibration (its processing, and for the generic
     profile the camera's fitted sensitivities): the dataset and the estimator agree bit for bit."""
-    from cd_spectra_addon.core.calibration_shot import fit_calibration
-    from cd_spectra_addon.core.estimate import camera_prior_for
-    from cd_spectra_addon.core.illuminants import known_lamp_spd
+    from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
+    from cd_spectra_addon.core.inverse.estimate import camera_prior_for
+    from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
     from training.simulation.camera_pipelines import TYPICAL, in_camera_exif, pipeline_for, render_in_camera
 
     scene, cube, meter = capture

@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from cd_spectra_addon.core.errors import PhotoError
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.srgb import srgb_decode, srgb_encode
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
 
 SUBSAMPLING = {"4:4:4": 0, "4:2:2": 1, "4:2:0": 2}
 

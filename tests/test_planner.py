@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.planner import Equipment, PlanError, plan_capture
-from cd_spectra_addon.core.setups import analyse, load_setup
+from cd_spectra_addon.core.planning.planner import Equipment, PlanError, plan_capture
+from cd_spectra_addon.core.planning.setups import analyse, load_setup
 from cd_spectra_addon.cli import main as cli_main
 
 

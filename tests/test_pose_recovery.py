@@ -8,14 +8,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core import general_pose, profile_residuals, relative_pose, setups
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.diffraction import pixel_diffraction
+from cd_spectra_addon.core.pose import general_pose
+
+from cd_spectra_addon.core.pose import profile_residuals
+
+from cd_spectra_addon.core.scene import relative_pose
+
+from cd_spectra_addon.core.planning import setups
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.errors import NoDiscError
-from cd_spectra_addon.core.estimate import estimate_image
-from cd_spectra_addon.core.images import load_photo
+from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.photo.images import load_photo
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -152,7 +158,7 @@ def test_an_oblique_photo_is_read_not_refused(oblique_photo):
     2× the MAE the true pose gives. (Not closer: along the streak the disc centre is found only to
     ~1.5 mm, which moves the tracks' outer edge, where the blue end lies, and the lamp's direction
     ~1°; the bins there change by up to 7 %, and a physics-only solve amplifies that.)"""
-    from cd_spectra_addon.core.pose_fit import PoseFit
+    from cd_spectra_addon.core.pose.pose_fit import PoseFit
 
     scene, loaded, _ = oblique_photo
     kwargs = dict(preset="tripod-oblique", camera=DEFAULT_CAMERA, model=None, method="physics")
@@ -248,9 +254,9 @@ def test_a_wrong_wavelength_axis_shows_in_the_camera_colours_and_the_confidence(
     """At the true pose the readout's colours agree with the camera's at their labels (|shift| <
     2.5 nm); the same photo read with the camera aimed 0.3° off (λ₁ ~15 nm off along the streak)
     disagrees by the shift the pose makes, and the estimate says so and is trusted less."""
-    from cd_spectra_addon.core.analysis import prepare
-    from cd_spectra_addon.core.colour_check import wavelength_shift_nm
-    from cd_spectra_addon.core.pose_fit import PoseFit, colour_blur_nm
+    from cd_spectra_addon.core.inverse.prepare import prepare
+    from cd_spectra_addon.core.readout.colour_check import wavelength_shift_nm
+    from cd_spectra_addon.core.pose.pose_fit import PoseFit, colour_blur_nm
 
     scene, loaded, _ = oblique_photo
     rel = relative_pose.relative_pose(scene)
@@ -282,7 +288,7 @@ def test_the_disc_outline_gives_the_camera_pose():
     """A room-lit disc's outline, a circle of 60 mm seen as an ellipse with the EXIF focal length,
     gives the disc's distance within 4 % and (one of its two solutions) its normal within 2.5°;
     a photo of a dark disc (only the rainbow) shows no outline."""
-    from cd_spectra_addon.core import rim_ellipse
+    from cd_spectra_addon.core.pose import rim_ellipse
 
     scene = _oblique(Pose(tilt_deg=(2.0, 1.0), camera_rotation_deg=(1.0, 0.0)), zoom=1.6)
     scene = Scene(scene.preset.with_image_size(512), scene.pose)
@@ -385,7 +391,7 @@ def test_a_tilted_disc_under_a_near_axis_camera_is_read_as_tilted(name, zoom):
     camera and lamp angles from the disc's axis within 1° of the truth (the flat reading is 2–5°
     off), and the first-order pixels' λ₁ within 1 nm. (zoom: the disc ~800 px across, as the
     loader's crop of a real photo.)"""
-    from cd_spectra_addon.core.capture_advice import capture_angles
+    from cd_spectra_addon.core.planning.capture_advice import capture_angles
 
     preset = load_preset(name).with_image_size(SIZE)
     preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * zoom))

@@ -21,14 +21,14 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import estimate_image
-from cd_spectra_addon.core.images import ExifInfo, LinearImage
-from cd_spectra_addon.core.model import INPUT_SIZE, load_model, model_inputs
-from cd_spectra_addon.core.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
-from cd_spectra_addon.core.spectra_files import read_spectra_csv
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
+from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.photo.images import ExifInfo, LinearImage
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model, model_inputs
+from cd_spectra_addon.core.readout.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
+from cd_spectra_addon.core.spectra.spectra_files import read_spectra_csv
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
 from training.reliability import hostile
 
 SLOW = settings(max_examples=40, deadline=None, derandomize=True,
@@ -129,7 +129,7 @@ def test_any_photo_gives_a_finite_peak_normalised_spd_or_a_specific_error(case) 
        st.integers(0, 2**32 - 1))
 def test_random_integer_files_through_estimate_photo(bits_dtype, height, width, seed) -> None:
     """Real files (PNG 8/16-bit) of random content through the whole path, loader included."""
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
     from training.simulation.photo import write_photo
 
     bits, _ = bits_dtype
@@ -156,7 +156,7 @@ def profiles(draw: st.DrawFn) -> Readout:
     noise = draw(arrays(np.float64, (N_FEATURES, 3), elements=st.floats(0.0, 1e6, allow_subnormal=False)))
     sat = draw(arrays(np.float64, N_FEATURES, elements=st.floats(0.0, 1.0)))
     empty = np.zeros(0)
-    from cd_spectra_addon.core.diffraction import PixelDiffraction
+    from cd_spectra_addon.core.scene.diffraction import PixelDiffraction
 
     pixels = PixelDiffraction(**{f: empty.astype(np.int64) if f == "index" else empty.astype(bool) if f == "on_tracks"
                                  else np.zeros((0, 3)) if f in ("points", "view") else empty

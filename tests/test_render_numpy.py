@@ -4,9 +4,9 @@
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from tests.ring_geometry import (
     coaxial_first_order_radius_px,
     first_order_radius_mm_on_x_axis,

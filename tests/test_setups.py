@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.capture import Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.scene.capture import Scene, load_preset, preset_from_dict
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.setups import Box, analyse, load_setup, setup_from_dict, setup_names
+from cd_spectra_addon.core.planning.setups import Box, analyse, load_setup, setup_from_dict, setup_names
 
 SHIPPED = ["phone-near-axis", "tripod-oblique", "phone-distant-lamp"]
 REPO = Path(__file__).resolve().parents[1]

@@ -44,7 +44,7 @@ def test_short_soak_keeps_memory_flat(tmp_path: Path) -> None:
 @pytest.mark.slow
 def test_soak_catches_a_leak(monkeypatch: pytest.MonkeyPatch) -> None:
     """An estimator that keeps 4 MB per call fails the bar (the measurement is not vacuous)."""
-    from cd_spectra_addon.core import estimate
+    from cd_spectra_addon.core.inverse import estimate
     from cd_spectra_addon.core.errors import PhotoError
 
     kept: list[np.ndarray] = []
@@ -70,7 +70,7 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
 
 
 def _decoders(installed: Installed) -> int:
-    return len(installed.sub("cd_spectra_addon.core.images")._decoders)
+    return len(installed.sub("cd_spectra_addon.core.photo.images")._decoders)
 
 
 @pytest.mark.blender

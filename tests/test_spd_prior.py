@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from scipy import constants
 from scipy.optimize import minimize_scalar
 
-from cd_spectra_addon.core.spectral_grid import (
+from cd_spectra_addon.core.spectra.grid import (
     N_BANDS,
     WAVELENGTHS_NM,
     hat_integrals,
@@ -27,12 +27,12 @@ from cd_spectra_addon.core.spectral_grid import (
 from training.learning import spd_prior as prior
 from training.learning.spd_prior import FAMILIES, sample_spds
 from training.learning.spd_prior.families import _filter_transmission
-from training.learning.spd_prior.grid import _band_grid, _energy_band
+from training.learning.spd_prior.grid import band_grid, energy_band
 
 MODULES = sorted(Path(prior.__file__).parent.glob("*.py"))
 
 
-def _cct_duv(spds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cct_duv(spds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """CCT (K) and Duv of grid SPDs with colour-science's CIE 1931 CMFs and Ohno (2013)."""
     import colour
 
@@ -148,8 +148,8 @@ def test_line_energy_lands_on_the_two_nearest_samples():
 @pytest.mark.parametrize(("peak", "fwhm"), [(405.0, 12.0), (450.0, 15.0), (630.0, 20.0), (560.0, 120.0)])
 def test_phosphor_and_led_bands_are_hat_averaged_like_resample_to_grid(peak, fwhm):
     wl = np.arange(300.0, 900.0, 0.02)
-    ref = resample_to_grid(wl, _energy_band(np.array(peak), np.array(fwhm), wl))
-    assert np.abs(_band_grid(np.array(peak), np.array(fwhm)) - ref).max() < 5e-4 * ref.max()
+    ref = resample_to_grid(wl, energy_band(np.array(peak), np.array(fwhm), wl))
+    assert np.abs(band_grid(np.array(peak), np.array(fwhm)) - ref).max() < 5e-4 * ref.max()
 
 
 def test_fine_to_grid_is_resample_to_grid():
@@ -188,7 +188,7 @@ def test_blackbody_rows_are_planck_curves_between_1000_and_12000_k():
 
 
 def test_incandescent_is_warm():
-    cct, duv = _cct_duv(prior.incandescent(np.random.default_rng(8), 300))
+    cct, duv = cct_duv(prior.incandescent(np.random.default_rng(8), 300))
     assert np.all((cct > 1600) & (cct < 4300))
     assert np.median(np.abs(duv)) < 0.003  # thermal sources sit on the Planckian locus
 
@@ -198,7 +198,7 @@ def test_incandescent_is_warm():
                                                   ("fluorescent_tri", 2700.0, 6500.0)])
 def test_white_sources_hit_their_cct_range_near_the_locus(family, lo, hi):
     spds = getattr(prior, family)(np.random.default_rng(9), 400)
-    cct, duv = _cct_duv(spds)
+    cct, duv = cct_duv(spds)
     assert np.all((cct > 0.95 * lo) & (cct < 1.05 * hi)), (cct.min(), cct.max())
     assert np.mean((cct >= lo - 50) & (cct <= hi + 50)) > 0.95
     assert np.percentile(cct, 10) < lo + 600 and np.percentile(cct, 90) > hi - 1200  # spans it
@@ -232,7 +232,7 @@ def test_mercury_lines_land_on_the_right_grid_samples(family):
 
 def test_daylight_is_a_daylight():
     spds = prior.daylight(np.random.default_rng(12), 400)
-    cct, duv = _cct_duv(spds)
+    cct, duv = cct_duv(spds)
     assert np.mean((cct > 4000) & (cct < 20000)) > 0.9
     assert np.median(cct) > 5000 and np.percentile(cct, 95) > 8000  # sky light is in there
     assert np.all(np.abs(duv) < 0.02)
@@ -279,7 +279,7 @@ def test_xenon_flash_is_a_near_daylight_continuum_with_xenon_lines():
     """A flash tube: CCT mostly 5000–8500 K near the locus (warming windows pull it to ~5500 K),
     Xe II 484.4 nm and 529.2/533.9 nm lines above the continuum, nothing at 500 nm."""
     spds = prior.xenon_flash(np.random.default_rng(21), 400)
-    cct, duv = _cct_duv(spds)
+    cct, duv = cct_duv(spds)
     assert 4500 < np.percentile(cct, 5) and np.percentile(cct, 95) < 9500 and 5500 < np.median(cct) < 7000
     assert np.all(np.abs(duv) < 0.025)
     assert np.mean(_spikiness(spds, _idx(485)) > 0) > 0.9
@@ -323,7 +323,7 @@ def test_the_module_reads_no_measured_spectra():
                 roots.add(module_name.split(".")[0])
                 if module_name.split(".")[0] in ("training", "cd_spectra_addon"):  # itself and the core only
                     assert module_name.startswith(("training.learning.spd_prior.", "cd_spectra_addon.core.")), module_name
-                if node.module == "cd_spectra_addon.core.illuminants":  # Planck, not CIE daylight
+                if node.module == "cd_spectra_addon.core.spectra.illuminants":  # Planck, not CIE daylight
                     assert {a.name for a in node.names} <= {"planck", "C2_NM_K"}, module.name
         assert roots <= {"__future__", "math", "collections", "dataclasses", "functools", "typing",
                          "numpy", "cd_spectra_addon", "training"}, (module.name, roots)

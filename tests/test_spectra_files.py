@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core import spectra_files as sf
+from cd_spectra_addon.core.spectra import spectra_files as sf
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTHS_NM
 from training.reliability.hostile import unwritable_folder
 
 NAME = 'Glühlampe "60 W", Küche ☀'

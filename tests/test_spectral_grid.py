@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.spectral_grid import (
+from cd_spectra_addon.core.spectra.grid import (
     N_BANDS,
     WAVELENGTHS_NM,
     hat_integrals,

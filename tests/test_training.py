@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.model import INPUT_SIZE, load_model
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
 from training.learning import dataset
 from training.learning import train
 from training.learning.spd_prior import gaussian_prior
@@ -122,7 +122,7 @@ def test_the_dataset_reads_near_axis_photos_and_gives_up_on_refused_geometries(t
     data = np.load(path)
     counts = {name: int(np.sum(data["cube"] == name)) for name in ("phone-nominal", "phone-aimed", "tripod-nominal")}
     assert counts["phone-nominal"] > 18 and counts["phone-aimed"] > 18
-    from cd_spectra_addon.core.analysis import prepare
+    from cd_spectra_addon.core.inverse.prepare import prepare
     from cd_spectra_addon.core.errors import CDSpectraError
     try:  # the oblique cube follows what the estimator does: refused today, read once it is
         oblique = dataset.CUBE_SETS["buildable-smoke"][2]
@@ -144,7 +144,7 @@ def test_the_dataset_reads_near_axis_photos_and_gives_up_on_refused_geometries(t
 def test_band_weight_is_0_or_1_in_bands_with_linear_ramps_between():
     from training.learning.tune_fusion import BANDS_NM, TRANSITION_NM, band_weight
 
-    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM as lam
+    from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM as lam
 
     use = [False, True, True, False, False, True, True, False]
     w = band_weight(use)
@@ -159,7 +159,7 @@ def test_band_weight_is_0_or_1_in_bands_with_linear_ramps_between():
 
 
 def _case(truth, net, physics, rng):
-    from cd_spectra_addon.core.readout import Readout
+    from cd_spectra_addon.core.readout.readout import Readout
     from training.learning.tune_fusion import Case
 
     matrix = rng.random((60, 3, 81))
@@ -176,7 +176,7 @@ def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():
     others, and the blend beats both."""
     from training.learning.tune_fusion import BANDS_NM, choose_bands
 
-    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM as lam
+    from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM as lam
 
     rng = np.random.default_rng(0)
     middle = (lam >= 450) & (lam <= 650)
@@ -221,7 +221,7 @@ def test_band_mae_scores_the_bands_the_camera_sees_at_their_own_peak():
     estimate that is right there but wrong in the red tail loses only in the tail band."""
     from training.learning.tune_fusion import BANDS_NM, band_mae
 
-    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM as lam
+    from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM as lam
 
     truth = np.exp(-0.5 * ((lam - 760) / 60) ** 2) + 0.2  # peak in the red tail, like a tungsten lamp
     estimate = np.where(lam > 700, truth * 0.4, truth)

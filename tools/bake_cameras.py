@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.cameras import CAMERA_FILE
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.cameras import CAMERA_FILE
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 DEFAULT_SOURCE = Path(__file__).resolve().parents[2] / "shared" / "data" / "cameras"
 

@@ -2,7 +2,7 @@
 
     make bake-colour   (python -m tools.bake_colour)
 
-Blender's bundled Python has numpy only, so :mod:`cd_spectra_addon.core.colour` works from
+Blender's bundled Python has numpy only, so :mod:`cd_spectra_addon.core.spectra.colour` works from
 numbers baked here, once, offline: ``cd_spectra_addon/core/colour_tables.json``. Re-run only
 when colour-science or a choice below changes (the output is committed; the parity tests in
 ``tests/test_colour.py`` compare every table with colour-science again).
@@ -41,9 +41,9 @@ from pathlib import Path
 import colour
 import numpy as np
 
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
-TARGET = Path(__file__).resolve().parents[1] / "cd_spectra_addon" / "core" / "colour_tables.json"
+TARGET = Path(__file__).resolve().parents[1] / "cd_spectra_addon" / "core" / "spectra" / "colour_tables.json"
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 CCT_MIN_K = 1000.0

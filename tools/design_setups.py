@@ -3,7 +3,7 @@
     python tools/design_setups.py [--check]
 
 Each set-up starts from equipment a person has (stated below); the planner
-(cd_spectra_addon.core.planner) searches lamp and camera positions with the forward model's
+(cd_spectra_addon.core.planning.planner) searches lamp and camera positions with the forward model's
 geometry and the result, with what it delivers, is written to
 cd_spectra_addon/presets/<name>.json. ``--check`` only compares with the committed files
 (exit 1 if they differ), so a change to the physics that moves a set-up is noticed.
@@ -20,9 +20,9 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from cd_spectra_addon.core.capture import PRESET_DIR  # noqa: E402
-from cd_spectra_addon.core.planner import Equipment, Plan, plan_capture, setup_summary  # noqa: E402
-from cd_spectra_addon.core.setups import analyse, setup_from_dict  # noqa: E402
+from cd_spectra_addon.core.scene.capture import PRESET_DIR  # noqa: E402
+from cd_spectra_addon.core.planning.planner import Equipment, Plan, plan_capture, setup_summary  # noqa: E402
+from cd_spectra_addon.core.planning.setups import analyse, setup_from_dict  # noqa: E402
 
 # name → (equipment, families, what it is)
 DESIGNS: dict[str, tuple[Equipment, tuple[str, ...], str]] = {

@@ -21,7 +21,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from cd_spectra_addon.core.setups import SetUp, analyse, camera_body_box, load_setup, setup_names  # noqa: E402
+from cd_spectra_addon.core.planning.setups import SetUp, analyse, camera_body_box, load_setup, setup_names  # noqa: E402
 
 RAYS_NM = (400.0, 550.0, 700.0)
 RAY_COLOURS = {400.0: "#7a3cff", 550.0: "#2fae3a", 700.0: "#e0321e"}

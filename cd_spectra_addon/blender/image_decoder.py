@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 
 from ..core.errors import PhotoError
-from ..core.images import DecodedPixels, PhotoHeader, register_decoder, unregister_decoder
+from ..core.photo.images import DecodedPixels, PhotoHeader, register_decoder, unregister_decoder
 
 __all__ = ["decode_with_blender", "register", "unregister"]
 

@@ -19,8 +19,8 @@ from typing import Any, Sequence
 
 import bpy
 
-from ..core.colour import SpectralColour, spectral_colour  # the colour of an SPD is the core's
-from ..core.spectral_grid import N_BANDS, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
+from ..core.spectra.colour import SpectralColour, spectral_colour  # the colour of an SPD is the core's
+from ..core.spectra.grid import N_BANDS, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
 
 GROUP_PREFIX = "CD Spectra SPD"
 KEY = "cd_spectra"  # prefix of every custom property the add-on writes

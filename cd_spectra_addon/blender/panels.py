@@ -190,8 +190,8 @@ def capture_advice(preset: str) -> tuple[list[str], list[str]]:
     preset (a few ms). Presets that are not buildable set-ups point to the others and the planner."""
     if preset not in _ADVICE:
         from ..core.errors import CDSpectraError
-        from ..core.planner import setup_summary
-        from ..core.setups import analyse, load_setup, setup_names
+        from ..core.planning.planner import setup_summary
+        from ..core.planning.setups import analyse, load_setup, setup_names
 
         try:
             setup = load_setup(preset)

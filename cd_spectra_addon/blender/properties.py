@@ -18,9 +18,9 @@ from bpy.props import (
     StringProperty,
 )
 
-from ..core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
-from ..core.capture import DEFAULT_PRESET
-from ..core.illuminants import KNOWN_LAMPS
+from ..core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
+from ..core.scene.capture import DEFAULT_PRESET
+from ..core.spectra.illuminants import KNOWN_LAMPS
 
 NO_CALIBRATION = "NONE"
 
@@ -51,7 +51,7 @@ def stable_number(identifier: str) -> int:
 
 def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
     if "preset" not in _ITEMS:
-        from ..core.capture import load_preset, preset_names
+        from ..core.scene.capture import load_preset, preset_names
 
         items = []
         for name in preset_names():
@@ -66,7 +66,7 @@ def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
 
 def camera_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
     if "camera" not in _ITEMS:
-        from ..core.cameras import camera_names
+        from ..core.spectra.cameras import camera_names
 
         names = camera_names()
         items = [(DEFAULT_CAMERA, DEFAULT_CAMERA.replace("_", " "), "Default camera profile",
@@ -83,7 +83,7 @@ def camera_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
 def calibration_names() -> list[str]:
     """Saved calibration profiles (none until the estimator's calibration module is present)."""
     try:
-        from ..core.calibration import list_calibrations
+        from ..core.calibration.calibration import list_calibrations
     except ImportError:
         return []
     names = []

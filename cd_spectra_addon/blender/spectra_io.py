@@ -11,19 +11,19 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Sequence
 
 if TYPE_CHECKING:
-    from ..core.spectra_files import ExportFormat
+    from ..core.spectra.spectra_files import ExportFormat
 
 
 def export_formats() -> list[ExportFormat]:
     """The core's export formats this Python can write (TM-27-14 only with colour-science)."""
-    from ..core.spectra_files import EXPORT_FORMATS
+    from ..core.spectra.spectra_files import EXPORT_FORMATS
 
     return [fmt for fmt in EXPORT_FORMATS.values() if fmt.available()]
 
 
 def export_format(identifier: str) -> ExportFormat:
     """The format the menu item ``identifier`` names; CDSpectraError for an unknown one."""
-    from ..core.spectra_files import export_format as core_format
+    from ..core.spectra.spectra_files import export_format as core_format
 
     return core_format(identifier)
 
@@ -36,7 +36,7 @@ def write_spd(fmt: ExportFormat, path: str | Path, spd: Sequence[float], meta: d
 def read_reference(path: str | Path) -> tuple[str, list[float]]:
     """(name, SPD on the 81-band grid) of a spectrum file (CSV/TSV/TXT, JSON, pbrt .spd,
     TM-27-14 XML); CDSpectraError with a reason if unreadable."""
-    from ..core.spectra_files import read_reference_spd
+    from ..core.spectra.spectra_files import read_reference_spd
 
     name, spd = read_reference_spd(path)
     return str(name), [float(v) for v in spd]
@@ -46,7 +46,7 @@ def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, 
     """Accuracy numbers of an estimate against a reference (MAE, Δu'v', ...)."""
     import numpy as np
 
-    from ..core.colour import compare_spds
+    from ..core.spectra.colour import compare_spds
 
     result = compare_spds(np.asarray(estimate, dtype=np.float64), np.asarray(reference, dtype=np.float64))
     return {str(k): float(v) for k, v in result.items() if isinstance(v, (int, float))}
@@ -54,6 +54,6 @@ def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, 
 
 def standard_lamp(identifier: str) -> list[float]:
     """SPD of a known calibration lamp (core.illuminants.KNOWN_LAMPS) on the product grid."""
-    from ..core.illuminants import known_lamp_spd
+    from ..core.spectra.illuminants import known_lamp_spd
 
     return [float(v) for v in known_lamp_spd(identifier)]

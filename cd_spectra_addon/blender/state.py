@@ -9,7 +9,7 @@ from typing import Any
 
 import bpy
 
-from ..core.spectral_grid import N_BANDS
+from ..core.spectra.grid import N_BANDS
 from .properties import GENERIC_CAMERA, NO_CALIBRATION
 
 DEFAULT_WORKING_SPACE = "Linear Rec.709"
@@ -28,7 +28,7 @@ def working_space_and_warning() -> tuple[str, str | None]:
     ``lin_ap1_scene``) names it independently of the OCIO config's display names. A custom OCIO
     config may have neither a known id nor a known name: Rec.709 then, and say so.
     """
-    from ..core.colour import known_working_space
+    from ..core.spectra.colour import known_working_space
 
     colorspace = getattr(bpy.data, "colorspace", None)
     if colorspace is None:
@@ -109,7 +109,7 @@ def reference(settings: Any) -> dict[str, Any] | None:
 
 def camera_choice(value: str) -> str:
     """Enum value → the camera name the core expects (empty = an item that no longer exists)."""
-    from ..core.cameras import DEFAULT_CAMERA
+    from ..core.spectra.cameras import DEFAULT_CAMERA
 
     return value or DEFAULT_CAMERA
 

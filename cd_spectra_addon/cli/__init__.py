@@ -21,7 +21,7 @@ from .common import EXIT_BAD_INPUT, EXIT_INTERNAL, Parser, UsageError
 COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "plan", "presets", "cameras",
                                   "calibrations")
 COMMANDS: tuple[ModuleType, ...] = tuple(importlib.import_module(f"{__name__}.{name}") for name in COMMAND_NAMES)
-from ..core.capture import DEFAULT_PRESET  # noqa: E402  (re-exported for callers of the CLI)
+from ..core.scene.capture import DEFAULT_PRESET  # noqa: E402  (re-exported for callers of the CLI)
 
 
 def build_parser() -> argparse.ArgumentParser:

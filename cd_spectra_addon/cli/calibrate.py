@@ -13,8 +13,8 @@ import argparse
 from collections.abc import Callable
 from pathlib import Path
 
-from ..core.cameras import DEFAULT_CAMERA
-from ..core.capture import DEFAULT_PRESET
+from ..core.spectra.cameras import DEFAULT_CAMERA
+from ..core.scene.capture import DEFAULT_PRESET
 from .common import UsageError
 
 NAME = "calibrate"
@@ -22,7 +22,7 @@ HELP = "make a calibration profile from a photo of a known lamp"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..core.illuminants import KNOWN_LAMPS, LAMP_ALIASES
+    from ..core.spectra.illuminants import KNOWN_LAMPS, LAMP_ALIASES
 
     parser.add_argument("photo", type=Path, metavar="PHOTO", help="the CD under the known lamp")
     lamp = parser.add_mutually_exclusive_group(required=True)
@@ -39,9 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    from ..core.illuminants import KNOWN_LAMPS, LAMP_ALIASES, known_lamp_spd
-    from ..core.calibration_shot import calibrate_photo
-    from ..core.spectra_files import read_reference_spd
+    from ..core.spectra.illuminants import KNOWN_LAMPS, LAMP_ALIASES, known_lamp_spd
+    from ..core.inverse.calibration_shot import calibrate_photo
+    from ..core.spectra.spectra_files import read_reference_spd
 
     if not args.name.strip():
         raise UsageError("--name must not be empty")

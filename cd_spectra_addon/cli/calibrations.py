@@ -14,7 +14,7 @@ add_arguments = listing.add_arguments
 
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    from ..core.calibration import list_calibrations
+    from ..core.calibration.calibration import list_calibrations
     from ..core.user_folders import calibration_dir
 
     folder = calibration_dir()

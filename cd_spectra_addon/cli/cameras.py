@@ -13,7 +13,7 @@ add_arguments = listing.add_arguments
 
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    from ..core.cameras import DEFAULT_CAMERA, camera_names
+    from ..core.spectra.cameras import DEFAULT_CAMERA, camera_names
 
     rows = [{"name": name, "description": "(default)" if name == DEFAULT_CAMERA else ""}
             for name in camera_names()]

@@ -32,8 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     import numpy as np
 
-    from ..core.colour import compare_spds
-    from ..core.spectra_files import read_reference_spd
+    from ..core.spectra.colour import compare_spds
+    from ..core.spectra.spectra_files import read_reference_spd
     from .common import UsageError
 
     results = read_results(args.result)

@@ -18,8 +18,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..core.cameras import DEFAULT_CAMERA
-from ..core.capture import DEFAULT_PRESET
+from ..core.spectra.cameras import DEFAULT_CAMERA
+from ..core.scene.capture import DEFAULT_PRESET
 from .common import STDOUT, UsageError, atomic_path, check_output, progress, quiet_fds, writing
 
 NAME = "estimate"
@@ -44,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
     try:
-        from ..core.estimate import estimate_photo
+        from ..core.inverse.estimate import estimate_photo
     except ImportError as exc:
         raise UsageError(f"this build has no estimator ({exc})") from exc
     results = []
@@ -121,7 +121,7 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
 
         from ..blender import properties, state
         from ..blender.light import create_light
-        from ..core.colour import spectral_colour
+        from ..core.spectra.colour import spectral_colour
 
         bpy.ops.wm.read_factory_settings(use_empty=True)
         space = state.working_space()
@@ -169,7 +169,7 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     check_output(args.json)
     check_output(args.blend, ".blend")
     check_output(args.plot, ".png")
-    from ..core.images import register_decoder, unregister_decoder
+    from ..core.photo.images import register_decoder, unregister_decoder
 
     register_decoder(_blender_fallback_decoder)
     try:

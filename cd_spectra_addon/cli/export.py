@@ -69,7 +69,7 @@ def read_results(path: Path) -> list[dict[str, Any]]:
 
 
 def targets(result_path: Path, out: Path | None, fmt: str, count: int) -> list[Path]:
-    from ..core.spectra_files import export_format
+    from ..core.spectra.spectra_files import export_format
 
     ext = export_format(FORMATS[fmt]).extension
     base = out if out is not None else result_path.with_name(f"{result_path.stem}-{fmt}{ext}")
@@ -81,7 +81,7 @@ def targets(result_path: Path, out: Path | None, fmt: str, count: int) -> list[P
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     import numpy as np
 
-    from ..core import spectra_files
+    from ..core.spectra import spectra_files
 
     fmt = spectra_files.export_format(FORMATS[args.format])
     if not fmt.available():

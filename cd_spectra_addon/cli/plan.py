@@ -45,7 +45,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _equipment(args: argparse.Namespace) -> "Equipment":
-    from ..core.planner import Equipment
+    from ..core.planning.planner import Equipment
 
     return Equipment(lamp_distance_mm=args.lamp_distance_mm, lamp_size_mm=args.lamp_size_mm,
                      focal_mm=args.focal_mm, sensor_width_mm=args.sensor_width_mm, phone=bool(args.phone),
@@ -69,7 +69,7 @@ def _write_preset(path: Path, data: dict) -> None:
 
 
 def _text(plan: object) -> str:
-    from ..core.planner import Plan, setup_summary as _summary
+    from ..core.planning.planner import Plan, setup_summary as _summary
 
     assert isinstance(plan, Plan)
     lines = [f"Set-up: {plan.family}"]
@@ -85,7 +85,7 @@ def _text(plan: object) -> str:
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """Plan, print the steps (or the plan as JSON) and write the preset when asked."""
-    from ..core.planner import plan_capture
+    from ..core.planning.planner import plan_capture
 
     try:
         plan = plan_capture(_equipment(args), name=args.write_preset.stem if args.write_preset else "planned")

@@ -13,7 +13,7 @@ add_arguments = listing.add_arguments
 
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    from ..core.capture import load_preset, preset_names
+    from ..core.scene.capture import load_preset, preset_names
 
     rows = [{"name": name, "description": load_preset(name).description} for name in preset_names()]
     return listing.show(rows, args, out, "no presets in this build")

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.model import load_model
+from cd_spectra_addon.core.spectrum.model import load_model
 
-from training.evaluation.evaluate import Condition, _Photos, run_condition
+from training.evaluation.evaluate import Condition, Photos, run_condition
 from training.evaluation.lamps import Lamp, all_lamps
 from training.learning.dataset import CubeSpec
 from training.learning.spd_prior import sample_spds
@@ -55,7 +55,7 @@ def run(model, every: int, engine: str = "cycles", lamps: list[Lamp] | None = No
     fusion = model.metadata.get("fusion") or {}
     network_everywhere = all(np.min(fusion.get(k, [1.0])) >= 1.0 for k in ("band_weight", "calibrated_band_weight"))
     with tempfile.TemporaryDirectory() as tmp:
-        photos = _Photos(tmp, engine)
+        photos = Photos(tmp, engine)
         for key, mdl, method in (("blend", model, "model"), ("network", _without_band_weights(model), "model"),
                                  ("prior", model, "prior")):
             if key == "network" and network_everywhere:  # w = 1 everywhere: the blend is the network

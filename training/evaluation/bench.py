@@ -26,12 +26,12 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.estimate import estimate_image, estimate_photo
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
+from cd_spectra_addon.core.inverse.estimate import estimate_image, estimate_photo
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
 
 from training.simulation import photo
 from training.simulation.basis import REPO, basis_cube

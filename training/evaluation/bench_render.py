@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import cycles_scene, photo
 from training.simulation.render_numpy import render_cube as numpy_cube

@@ -20,7 +20,7 @@ photographed by a camera whose pixels are twice the cube's per side and written 
   cameras unlike the 52 (``external_cameras/``: a phone, a phone-sized compact, a machine-vision
   CCD and a Foveon sensor; evaluation only) — each without calibration, with the old per-bin
   gains and with what ``calibrate`` now does for the generic profile: fit the camera's own
-  sensitivities (:mod:`cd_spectra_addon.core.camera_fit`), then gains.
+  sensitivities (:mod:`cd_spectra_addon.core.calibration.camera_fit`), then gains.
 
 Everything goes through ``load_photo`` → ``estimate_image`` (camera "auto" unless stated):
 the product's path. All figures are from the simulator.
@@ -39,17 +39,17 @@ from typing import Any
 
 import numpy as np
 
-from cd_spectra_addon.core.calibration import Calibration, new_metadata
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.calibration_shot import fit_calibration
-from cd_spectra_addon.core.camera_pipeline import CameraPipeline
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-from cd_spectra_addon.core.estimate import camera_prior_for, estimate_image, resolve_camera
-from cd_spectra_addon.core.images import LinearImage, load_photo
-from cd_spectra_addon.core.model import load_model
+from cd_spectra_addon.core.calibration.calibration import Calibration, new_metadata
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
+from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
+from cd_spectra_addon.core.photo.images import LinearImage, load_photo
+from cd_spectra_addon.core.spectrum.model import load_model
 
-from training.evaluation.evaluate import _metrics, _summary
+from training.evaluation.evaluate import metrics, summary
 from training.evaluation.lamps import Lamp, lspdd_lamps
 from training.learning.dataset import camera_split
 from training.simulation import photo
@@ -228,9 +228,9 @@ def run_row(shooter: _Shooter, row: Row, lamps: list[Lamp], model: Any, held: li
         est = estimate_image(image, preset=preset, camera=profile_name,
                              calibration=cal, model=model)
         seconds.append(time.perf_counter() - t0)
-        rows.append({**_metrics(est.spd, lamp.spd), "confidence": est.confidence, "lamp": lamp.name,
+        rows.append({**metrics(est.spd, lamp.spd), "confidence": est.confidence, "lamp": lamp.name,
                      "camera": est.camera, "processed": image.processed})
-    summary = _summary(rows)
+    summary = summary(rows)
     summary["seconds_per_photo"] = float(np.mean(seconds))
     summary["processed_share"] = float(np.mean([r["processed"] for r in rows]))
     summary["cameras"] = sorted({r["camera"] for r in rows})

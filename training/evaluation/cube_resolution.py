@@ -27,14 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.analysis import physics_spd, prepare
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import load_preset
-from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.inverse.prepare import physics_spd, prepare
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.diffraction import pixel_diffraction
-from cd_spectra_addon.core.pose_fit import PoseFit
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
 
 from training.learning.dataset import CubeSpec, disc_fill_multiplier
 from training.learning.spd_prior import gaussian_prior, sample_spds

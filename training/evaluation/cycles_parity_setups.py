@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Scene, load_preset
-from cd_spectra_addon.core.setups import setup_names
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Scene, load_preset
+from cd_spectra_addon.core.planning.setups import setup_names
 
 from training.simulation import cycles_scene
 from training.simulation.render_numpy import render_cube

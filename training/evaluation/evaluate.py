@@ -30,18 +30,18 @@ from typing import Any
 
 import numpy as np
 
-from cd_spectra_addon.core import colour as colour_core
-from cd_spectra_addon.core.analysis import focal_px_for
-from cd_spectra_addon.core.calibration import Calibration, new_metadata
-from cd_spectra_addon.core.calibration_shot import gains_from_image
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Disc, Scene, load_preset
-from cd_spectra_addon.core.estimate import estimate_image
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.pose_fit import fit_pose
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import load_model
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra import colour as colour_core
+from cd_spectra_addon.core.inverse.prepare import focal_px_for
+from cd_spectra_addon.core.calibration.calibration import Calibration, new_metadata
+from cd_spectra_addon.core.inverse.calibration_shot import gains_from_image
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Disc, Scene, load_preset
+from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.pose.pose_fit import fit_pose
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import load_model
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import photo
 from training.simulation.basis import REPO, basis_cube
@@ -78,7 +78,7 @@ def _camera(cond: Condition) -> CameraProfile:
     return CameraProfile(cam.name, sens)
 
 
-class _Photos:
+class Photos:
     """Cached cubes per geometry; writes one photo file per (condition, lamp)."""
 
     def __init__(self, tmp: str, engine: str):
@@ -107,7 +107,7 @@ class _Photos:
         return path
 
 
-def _metrics(est: np.ndarray, ref: np.ndarray) -> dict[str, float]:
+def metrics(est: np.ndarray, ref: np.ndarray) -> dict[str, float]:
     m = colour_core.compare_spds(est, ref)
     out = {k: (float(m[k]) if m.get(k) is not None else math.nan) for k in
            ("mae_400_700", "mae_380_780", "pearson_r", "delta_uv_prime")}
@@ -123,7 +123,7 @@ def _correlation(a: list[float], b: list[float]) -> float:
     return float(np.corrcoef(x[ok], y[ok])[0, 1])
 
 
-def _summary(rows: list[dict[str, float]]) -> dict[str, float]:
+def summary(rows: list[dict[str, float]]) -> dict[str, float]:
     out: dict[str, float] = {"n": len(rows)}
     for key in METRICS:
         vals = np.array([r[key] for r in rows], dtype=float)
@@ -137,7 +137,7 @@ def _summary(rows: list[dict[str, float]]) -> dict[str, float]:
     return out
 
 
-def _calibration_for(photos: _Photos, cond: Condition, model) -> Calibration:
+def _calibration_for(photos: Photos, cond: Condition, model) -> Calibration:
     """A calibration shot of a household incandescent bulb (CIE A) in the same setup."""
     ref = known_lamp_spd("incandescent")
     path = photos.write(replace(cond, calibrate=False), ref, seed=99, tag="calibration")
@@ -147,7 +147,7 @@ def _calibration_for(photos: _Photos, cond: Condition, model) -> Calibration:
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
 
 
-def run_condition(photos: _Photos, cond: Condition, lamps: list[Lamp], model, method: str = "model",
+def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, method: str = "model",
                   seed: int = 0) -> tuple[list[dict[str, float]], list[np.ndarray], float]:
     """Metrics per lamp, the estimates, and the mean seconds per photo (estimate only)."""
     cal = _calibration_for(photos, cond, model) if cond.calibrate else None
@@ -170,7 +170,7 @@ def run_condition(photos: _Photos, cond: Condition, lamps: list[Lamp], model, me
         est = estimate_image(image, preset=preset, camera=cond.profile or cond.camera, calibration=cal,
                              model=model, method=method, fit=fit)
         seconds.append(time.perf_counter() - t0)
-        rows.append({**_metrics(est.spd, lamp.spd), "family": lamp.family, "lamp": lamp.name,
+        rows.append({**metrics(est.spd, lamp.spd), "family": lamp.family, "lamp": lamp.name,
                      "confidence": est.confidence})
         estimates.append(est.spd)
     return rows, estimates, float(np.mean(seconds))
@@ -183,7 +183,7 @@ def paper_protocol(engine: str, quick: bool, shipped, log=print) -> dict[str, An
     and validate on 1000 others — the paper's own protocol — and score the shipped model too."""
     import torch
 
-    from training.learning.dataset import _CubeJob, _run_cube
+    from training.learning.dataset import CubeJob, run_cube
     from training.learning.train import train
 
     n_total = 500 if quick else 5000
@@ -191,7 +191,7 @@ def paper_protocol(engine: str, quick: bool, shipped, log=print) -> dict[str, An
     perfect = Degradation(exposure=(1.0, 1.0), noise=(0.0, 0.0), ambient_probability=0.0,
                           formats=(("exr", 1.0),), gain_error=0.0, shift_error_nm=0.0, generic_probability=0.0)
     train_cams, _ = camera_split()
-    data = _run_cube(_CubeJob(spec, n_total, 4242, train_cams, perfect, engine, None, 0,
+    data = run_cube(CubeJob(spec, n_total, 4242, train_cams, perfect, engine, None, 0,
                               families=("smooth", "smooth_noise", "spiky")))
     n_train = int(0.8 * n_total)
     part = {k: v[:n_train] for k, v in data.items()}
@@ -295,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
     rob_nominal = CubeSpec("nominal", size=96 if args.quick else 256)
 
     with tempfile.TemporaryDirectory() as tmp:
-        photos = _Photos(tmp, args.engine)
+        photos = Photos(tmp, args.engine)
         # (ii) real lamps, three operating points.
         real: dict[str, Any] = {}
         estimates_model: list[np.ndarray] = []
@@ -304,11 +304,11 @@ def main(argv: list[str] | None = None) -> int:
             fam: dict[str, list] = defaultdict(list)
             for r in rows:
                 fam[f"{r['family']}"].append(r)
-            real[method] = {"all": _summary(rows), "seconds_per_photo": sec,
-                            "lspdd": _summary([r for r, lamp in zip(rows, lamps) if lamp.source == "LSPDD"]),
-                            "colour_science": _summary([r for r, lamp in zip(rows, lamps)
+            real[method] = {"all": summary(rows), "seconds_per_photo": sec,
+                            "lspdd": summary([r for r, lamp in zip(rows, lamps) if lamp.source == "LSPDD"]),
+                            "colour_science": summary([r for r, lamp in zip(rows, lamps)
                                                         if lamp.source != "LSPDD"]),
-                            "families": {k: _summary(v) for k, v in sorted(fam.items())},
+                            "families": {k: summary(v) for k, v in sorted(fam.items())},
                             "confidence_vs_error": _correlation([r["confidence"] for r in rows],
                                                                 [r["mae_400_700"] for r in rows])}
             if method == "model":
@@ -345,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
         for cond in conds:
             rows, _, _ = run_condition(photos, cond, subset, model)
             pooled += rows
-            robustness.append({"condition": cond.name, **_summary(rows)})
+            robustness.append({"condition": cond.name, **summary(rows)})
             print(f"robustness {cond.name}: {robustness[-1]['mae_400_700']:.4f}", flush=True)
         result["robustness"] = robustness
         # Does a low confidence flag a bad estimate? Only answerable across conditions: nominal
@@ -358,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
         cam_rows = []
         for name in cams:
             rows, _, _ = run_condition(photos, Condition(name, rob_nominal, camera=name), subset[::3], model)
-            cam_rows.append({"camera": name, "held_out": name in held, **_summary(rows)})
+            cam_rows.append({"camera": name, "held_out": name in held, **summary(rows)})
         result["cameras"] = cam_rows
 
     # (i) and (iv)

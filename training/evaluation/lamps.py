@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.spectral_grid import peak_normalise, resample_to_grid
+from cd_spectra_addon.core.spectra.grid import peak_normalise, resample_to_grid
 
 from training.simulation.basis import REPO
 

@@ -12,7 +12,7 @@ import json
 import math
 from typing import Any
 
-from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
+from cd_spectra_addon.core.spectrum.model import MODEL_DIR, MODEL_NAME
 
 from training.learning.spd_prior import FAMILIES
 from training.simulation.basis import REPO

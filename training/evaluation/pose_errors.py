@@ -39,20 +39,20 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core import colour as colour_core
-from cd_spectra_addon.core.ambient import rough_offset
-from cd_spectra_addon.core.analysis import focal_px_for
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import Pose, Preset, Scene, load_preset
-from cd_spectra_addon.core.diffraction import pixel_diffraction
+from cd_spectra_addon.core.spectra import colour as colour_core
+from cd_spectra_addon.core.readout.ambient import rough_offset
+from cd_spectra_addon.core.inverse.prepare import focal_px_for
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import Pose, Preset, Scene, load_preset
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import estimate_image
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import load_model
-from cd_spectra_addon.core.general_pose import fit_general_pose
-from cd_spectra_addon.core.pose_fit import PoseFit
-from cd_spectra_addon.core.capture_advice import capture_angles
-from cd_spectra_addon.core.relative_pose import near_axis
+from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import load_model
+from cd_spectra_addon.core.pose.general_pose import fit_general_pose
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.planning.capture_advice import capture_angles
+from cd_spectra_addon.core.scene.relative_pose import near_axis
 
 from training.evaluation.lamps import Lamp, lspdd_lamps
 from training.simulation import photo

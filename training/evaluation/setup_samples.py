@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene
-from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene
+from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import estimate_photo
-from cd_spectra_addon.core.setups import setup_names
+from cd_spectra_addon.core.inverse.estimate import estimate_photo
+from cd_spectra_addon.core.planning.setups import setup_names
 
 from training.evaluation.lamps import lspdd_lamps
 from training.evaluation.pose_errors import UPSAMPLE, crop_preset

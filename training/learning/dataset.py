@@ -28,22 +28,22 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
-from cd_spectra_addon.core.calibration import Calibration
-from cd_spectra_addon.core.calibration_shot import fit_calibration
-from cd_spectra_addon.core.camera_fit import camera_prior
-from cd_spectra_addon.core.camera_pipeline import CameraPipeline
-from cd_spectra_addon.core.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Preset, Scene, load_preset
-from cd_spectra_addon.core.diffraction import PixelDiffraction, pixel_diffraction
+from cd_spectra_addon.core.inverse.prepare import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.calibration.calibration import Calibration
+from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
+from cd_spectra_addon.core.calibration.camera_fit import camera_prior
+from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
+from cd_spectra_addon.core.spectra.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Preset, Scene, load_preset
+from cd_spectra_addon.core.scene.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.estimate import solving_camera
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.images import LinearImage, load_photo
-from cd_spectra_addon.core.model import INPUT_SIZE
-from cd_spectra_addon.core.pose_fit import PoseFit
-from cd_spectra_addon.core.solve import GaussianPrior
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.inverse.estimate import solving_camera
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.photo.images import LinearImage, load_photo
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.spectrum.solve import GaussianPrior
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import camera_pipelines, photo
 from training.simulation.basis import REPO, basis_cube
@@ -244,7 +244,7 @@ class Degradation:
     in_camera_setups: int = 4
 
 
-def _perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degradation) -> CameraProfile:
+def perturbed_camera(camera: CameraProfile, rng: np.random.Generator, deg: Degradation) -> CameraProfile:
     shift = rng.normal(0.0, deg.shift_error_nm)
     sens = np.stack([np.interp(WAVELENGTHS_NM - shift, WAVELENGTHS_NM, camera.sensitivities[:, c])
                      for c in range(3)], axis=1)
@@ -315,7 +315,7 @@ def sample_features(loaded: LinearImage, preset: Preset, camera: CameraProfile, 
                     ) -> tuple[NDArray[np.float32], NDArray[np.float64]] | None:
     """One training sample's network inputs and physics SPD through the product's own inverse path
     (``prepare`` → ``physics_spd`` → ``network_inputs``, with the calibration's camera as
-    :func:`~cd_spectra_addon.core.estimate.estimate_image` takes it), or None where the product
+    :func:`~cd_spectra_addon.core.inverse.estimate.estimate_image` takes it), or None where the product
     refuses the photo."""
     camera, generic = solving_camera(camera, generic, calibration)
     try:
@@ -352,7 +352,7 @@ def _new_in_camera_setup(rng: np.random.Generator, cube: NDArray[np.float32], me
                          tmpdir: str, exif_for_camera, max_side: int) -> _InCameraSetup:
     """Draw a camera, a rendering and a file type; take and calibrate the CIE A shot the product's way."""
     camera = load_camera(cameras[int(rng.integers(len(cameras)))])
-    unit = _perturbed_camera(camera, rng, deg)
+    unit = perturbed_camera(camera, rng, deg)
     names = [f for f, _ in deg.in_camera_formats]
     probs = np.array([w for _, w in deg.in_camera_formats], dtype=np.float64)
     fmt = names[int(rng.choice(len(names), p=probs / probs.sum()))]
@@ -406,7 +406,7 @@ def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
                 refused[i:] = True  # a geometry the estimator does not read (yet): no time spent on it
                 break
             camera = load_camera(job.cameras[int(rng.integers(len(job.cameras)))])
-            true_cam = _perturbed_camera(camera, rng, deg)
+            true_cam = perturbed_camera(camera, rng, deg)
             exposure = math.exp(rng.uniform(math.log(deg.exposure[0]), math.log(deg.exposure[1])))
             noise = rng.uniform(*deg.noise)
             setup = None
@@ -458,7 +458,7 @@ def dataset_key(cube_set: str, n_per_cube: int, seed: int, engine: str, deg: Deg
     cams, held = camera_split()
     # The samples go through the product's own inverse path: a change anywhere in the core (a pose
     # fit that reads oblique photos, a new readout) makes a new dataset, not a stale cached one.
-    core = sorted((Path(__file__).resolve().parents[2] / "cd_spectra_addon" / "core").glob("*.py"))
+    core = sorted((Path(__file__).resolve().parents[2] / "cd_spectra_addon" / "core").rglob("*.py"))
     code = b"".join(Path(p).read_bytes() for p in (__file__, photo.__file__, camera_pipelines.__file__, *core))
     blob = json.dumps({"set": [asdict(c) for c in CUBE_SETS[cube_set]], "n": n_per_cube, "seed": seed,
                        "engine": engine, "deg": asdict(deg), "held": held, "input": INPUT_SIZE},

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from training.learning.dataset import CUBE_SETS, SHIPPED_SET
 from training.learning.spd_prior import gaussian_prior
 from training.learning.train import train
-from training.learning.tune_fusion import BANDS_NM, TUNING_FAMILIES, _best, _cases, _grid, band_errors, band_rows
+from training.learning.tune_fusion import BANDS_NM, TUNING_FAMILIES, best_setting, fusion_cases, setting_grid, band_errors, band_rows
 from training.simulation.basis import REPO
 
 # Thermal and arc continua / LEDs / line sources: each group is a way of making light the probe
@@ -69,8 +69,8 @@ def run(data: dict[str, NDArray], cube_set: str, epochs: int, n: int, engine: st
         net, info = train({"inputs": data["inputs"][keep], "targets": data["targets"][keep]}, epochs, seed=100 + k,
                           log=lambda *_: None)
         model = TorchModel(net, prior_meta)
-        cases = _cases(model, cube_set, n, engine, seed=4242 + k, families=group)
-        best = _best(_grid(cases))
+        cases = fusion_cases(model, cube_set, n, engine, seed=4242 + k, families=group)
+        best = best_setting(setting_grid(cases))
         a, b = band_errors(cases, best["strength"], best["floor"])
         nets.append(a)
         pris.append(b)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from training.learning.spd_prior import FAMILIES, sample_spds
 
 

@@ -25,10 +25,13 @@ import torch
 from torch import nn
 
 from cd_spectra_addon import __version__
-from cd_spectra_addon.core import colour, pose_fit, readout, solve
-from cd_spectra_addon.core.capture import preset_names, PRESET_DIR
-from cd_spectra_addon.core.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra import colour
+from cd_spectra_addon.core.pose import pose_fit
+from cd_spectra_addon.core.readout import readout
+from cd_spectra_addon.core.spectrum import solve
+from cd_spectra_addon.core.scene.capture import preset_names, PRESET_DIR
+from cd_spectra_addon.core.spectrum.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation.basis import REPO
 from training.learning.dataset import CUBE_SETS, SHIPPED_SET, build_dataset, camera_split, generic_sensitivities

@@ -3,7 +3,7 @@
     python -m training.learning.tune_camera_prior [--out bench/camera_prior.md] [--size 160]
 
 A calibration shot fits the camera's own sensitivities under a Gaussian prior built from the
-training cameras (:mod:`cd_spectra_addon.core.camera_fit`). The prior's sample covariance only
+training cameras (:mod:`cd_spectra_addon.core.calibration.camera_fit`). The prior's sample covariance only
 spans those 39 cameras; a smooth squared-exponential term lets a fit leave that span. Its
 amplitude and length are chosen here by **leave-one-brand-out**: every training camera is
 photographed (numpy forward model, nominal pose, CIE A, 1 % noise, EXR: linear values) and its
@@ -22,15 +22,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core import camera_fit
-from cd_spectra_addon.core.analysis import prepare
-from cd_spectra_addon.core.camera_fit import CameraPrior, fit_sensitivities
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-from cd_spectra_addon.core.illuminants import known_lamp_spd
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.pose_fit import PoseFit
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.calibration import camera_fit
+from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.calibration.camera_fit import CameraPrior, fit_sensitivities
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.learning.dataset import camera_split
 from training.simulation import photo

@@ -4,7 +4,7 @@
 
 Photos of prior spectra (a seed the training set does not use) from the training geometries,
 degraded like the training data, through the product's preprocessing and model; a grid over the
-fusion strength and the uncertainty floor of :func:`cd_spectra_addon.core.solve.fused_solve`,
+fusion strength and the uncertainty floor of :func:`cd_spectra_addon.core.spectrum.solve.fused_solve`,
 then per band of 380–780 nm the fused network against physics + prior alone: the network is kept
 only in the bands where it wins (``fusion.band_weight``, used by ``estimate_image``).
 ``training.learning.train`` runs this after exporting and stores the choice in the model's
@@ -26,20 +26,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core import solve
-from cd_spectra_addon.core.analysis import network_inputs, physics_spd, prepare
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.colour import compare_spds
+from cd_spectra_addon.core.spectrum import solve
+from cd_spectra_addon.core.inverse.prepare import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.model import SpectralModel, load_model
-from cd_spectra_addon.core.readout import Readout
-from cd_spectra_addon.core.solve import GaussianPrior
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.spectrum.model import SpectralModel, load_model
+from cd_spectra_addon.core.readout.readout import Readout
+from cd_spectra_addon.core.spectrum.solve import GaussianPrior
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import photo
 from training.simulation.basis import REPO, basis_cube
-from training.learning.dataset import CUBE_SETS, Degradation, _perturbed_camera, camera_split
+from training.learning.dataset import CUBE_SETS, Degradation, perturbed_camera, camera_split
 from training.learning.spd_prior import FAMILIES, sample_spds
 
 STRENGTHS = (0.0, 0.1, 0.3, 1.0, 3.0)
@@ -76,7 +76,7 @@ def model_prior(model: SpectralModel) -> tuple[GaussianPrior, NDArray[np.float64
     return prior, prior.precision()
 
 
-def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int = SEED,
+def fusion_cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int = SEED,
            camera_error: bool = True, families: tuple[str, ...] = TUNING_FAMILIES) -> list[Case]:
     """Photos of ``n`` prior spectra, one geometry after another; photos the product refuses
     (an oblique geometry before the general-pose fit reads it) are left out, as in training."""
@@ -94,7 +94,7 @@ def _cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int =
             cube, _ = basis_cube(scene, engine)
             meter = photo.track_mask(scene)
             camera = load_camera(cams[int(rng.integers(len(cams)))])
-            true_cam = _perturbed_camera(camera, rng, deg) if camera_error else camera
+            true_cam = perturbed_camera(camera, rng, deg) if camera_error else camera
             img, _ = photo.expose(photo.linear_photo(cube, spd, true_cam), float(rng.uniform(0.5, 1.2)), meter)
             img = np.minimum(photo.add_noise(photo.upsample(img, deg.upsample), float(rng.uniform(0.003, 0.02)),
                                              rng), 1.0)
@@ -132,7 +132,7 @@ def _score(estimates: list[NDArray[np.float64]], cases: list[Case]) -> dict[str,
             "delta_uv_prime": float(np.mean(duv))}
 
 
-def _grid(cases: list[Case]) -> list[dict[str, float]]:
+def setting_grid(cases: list[Case]) -> list[dict[str, float]]:
     rows = []
     for strength, floor in itertools.product(STRENGTHS, FLOORS):
         if strength == 0 and floor != FLOORS[0]:
@@ -142,7 +142,7 @@ def _grid(cases: list[Case]) -> list[dict[str, float]]:
     return rows
 
 
-def _best(rows: list[dict[str, float]]) -> dict[str, float]:
+def best_setting(rows: list[dict[str, float]]) -> dict[str, float]:
     # Score: the two MAEs plus colour error scaled to comparable size (Δu'v' 0.001 ≈ MAE 0.01).
     return min(rows, key=lambda r: r["mae_400_700"] + r["mae_380_780"] + 10 * r["delta_uv_prime"])
 
@@ -230,11 +230,11 @@ def tune(model: SpectralModel, cube_set: str = "full", n: int = 64, engine: str 
     fusion strength and floor, then per band network or physics + prior (:func:`choose_bands`)."""
     out: dict[str, Any] = {}
     for key, camera_error in (("uncalibrated", True), ("calibrated", False)):
-        cases = _cases(model, cube_set, n, engine, camera_error=camera_error)
+        cases = fusion_cases(model, cube_set, n, engine, camera_error=camera_error)
         if len(cases) < 2:
             raise RuntimeError(f"only {len(cases)} of {n} tuning photos of the {cube_set!r} geometries were read")
-        rows = _grid(cases)
-        best = _best(rows)
+        rows = setting_grid(cases)
+        best = best_setting(rows)
         out[key] = {"strength": best["strength"], "floor": best["floor"], "rows": rows, "n_read": len(cases),
                     **choose_bands(cases, best["strength"], best["floor"], unseen)}
     out["n_photos"] = n

@@ -17,14 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core import solve
-from cd_spectra_addon.core.analysis import prepare
-from cd_spectra_addon.core.cameras import load_camera
-from cd_spectra_addon.core.capture import load_preset
-from cd_spectra_addon.core.colour import compare_spds
-from cd_spectra_addon.core.diffraction import pixel_diffraction
-from cd_spectra_addon.core.images import load_photo
-from cd_spectra_addon.core.pose_fit import PoseFit
+from cd_spectra_addon.core.spectrum import solve
+from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.spectra.cameras import load_camera
+from cd_spectra_addon.core.scene.capture import load_preset
+from cd_spectra_addon.core.spectra.colour import compare_spds
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.pose.pose_fit import PoseFit
 
 from training.simulation import photo
 from training.simulation.basis import basis_cube

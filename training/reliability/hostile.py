@@ -31,12 +31,12 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError, PhotoError
-from cd_spectra_addon.core.model import INPUT_SIZE, MODEL_NAME, layout_hash
-from cd_spectra_addon.core.spectral_grid import N_BANDS
-from cd_spectra_addon.core.srgb import srgb_encode
+from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, MODEL_NAME, layout_hash
+from cd_spectra_addon.core.spectra.grid import N_BANDS
+from cd_spectra_addon.core.photo.srgb import srgb_encode
 
 from training.simulation import photo
 
@@ -69,7 +69,7 @@ class Base:
 @functools.lru_cache(maxsize=2)
 def make_base(size: int = BASE_SIZE) -> Base:
     """A 256 px photo of a CD under CIE A (≈1.5 s: the basis cube is rendered once per process)."""
-    from cd_spectra_addon.core.illuminants import known_lamp_spd
+    from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
     from training.simulation.render_numpy import render_cube
 
     scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
@@ -453,7 +453,8 @@ def _peak_kb():
 
 if rss_out and Path("/proc/self/status").is_file():
     atexit.register(lambda: Path(rss_out).write_text(_peak_kb()))
-from cd_spectra_addon.core import estimate, model
+from cd_spectra_addon.core.inverse import estimate
+from cd_spectra_addon.core.spectrum import model
 model_dir = os.environ.get("HOSTILE_MODEL_DIR")
 if model_dir:
     model.MODEL_DIR = Path(model_dir)
@@ -530,8 +531,8 @@ def _listing(folder: Path) -> list[str]:
 
 def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outcome:
     """``estimate_photo`` on one case (physics + prior while no shipped model exists)."""
-    from cd_spectra_addon.core.estimate import estimate_photo
-    from cd_spectra_addon.core.model import MODEL_DIR
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
+    from cd_spectra_addon.core.spectrum.model import MODEL_DIR
 
     preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else DEFAULT_PRESET
     if model_dir is not None:

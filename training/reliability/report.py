@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
+from cd_spectra_addon.core.spectrum.model import MODEL_DIR, MODEL_NAME
 
 from training.reliability import hostile, soak
 
@@ -134,7 +134,7 @@ def run_hostile() -> tuple[list[str], list[str]]:
 
 
 def _warm_led() -> np.ndarray:
-    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+    from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 
     lam = WAVELENGTHS_NM
     return peak_normalise(0.35 * np.exp(-0.5 * ((lam - 452) / 9) ** 2) + np.exp(-0.5 * ((lam - 590) / 55) ** 2))
@@ -142,8 +142,8 @@ def _warm_led() -> np.ndarray:
 
 def _sweep(rows: list[tuple[str, str, Any, np.ndarray]], header: str) -> list[str]:
     """Estimate each (lamp, setting, make(folder) -> photo path, true SPD) and tabulate."""
-    from cd_spectra_addon.core.colour import compare_spds
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.spectra.colour import compare_spds
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
 
     lines = [f"| lamp | {header} | MAE 400–700 | Δu′v′ | confidence | warnings |", "|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
@@ -166,7 +166,7 @@ def _model() -> Any:
 
 
 def run_sweeps() -> list[str]:
-    from cd_spectra_addon.core.capture import DEFAULT_PRESET, load_preset
+    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, load_preset
     from training.simulation import photo
 
     base = hostile.make_base()

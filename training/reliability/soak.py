@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.model import MODEL_DIR, MODEL_NAME
+from cd_spectra_addon.core.spectrum.model import MODEL_DIR, MODEL_NAME
 
 GROWTH_BAR = 0.10
 
@@ -66,10 +66,10 @@ def rss_mb() -> float:
 
 def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
     """(path, should succeed) for the soak's cycle of inputs."""
-    from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-    from cd_spectra_addon.core.capture import DEFAULT_PRESET, Scene, load_preset
-    from cd_spectra_addon.core.illuminants import known_lamp_spd
-    from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM, peak_normalise
+    from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+    from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
+    from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
     from training.simulation import photo
     from training.simulation.render_numpy import render_cube
 
@@ -104,7 +104,7 @@ def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
 
 def soak(n: int, warmup: int = 50, size: int = 128, progress: bool = False) -> dict[str, Any]:
     """Run ``n`` estimates (after ``warmup`` more) and report memory and time."""
-    from cd_spectra_addon.core.estimate import estimate_photo
+    from cd_spectra_addon.core.inverse.estimate import estimate_photo
 
     shipped = (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file()
     model: Any = "shipped" if shipped else None

@@ -13,8 +13,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from cd_spectra_addon.core import grating
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Scene, load_preset
+from cd_spectra_addon.core.scene import grating
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Scene, load_preset
 
 __all__ = ["EDGE_BANDS", "EXTREMES", "scene", "psnr", "twin_at_pixel_centres", "cycles_at_pixel_centres",
            "compare_extreme"]

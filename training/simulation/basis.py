@@ -17,9 +17,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cd_spectra_addon import __version__
-from cd_spectra_addon.core import grating
-from cd_spectra_addon.core.capture import Scene
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.scene import grating
+from cd_spectra_addon.core.scene.capture import Scene
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation.spectral_exr import read_spectral_exr, write_spectral_exr
 

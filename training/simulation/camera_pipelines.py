@@ -12,7 +12,7 @@ matrices, picture styles' documented contrast curves, phone "vivid" saturation):
 * exposure: metered on the rendered image (its brightest 0.1 % of the metered area at 90 %), so
   gamut and highlight clipping happen where a camera's would.
 
-:func:`sample_pipeline` returns a :class:`~cd_spectra_addon.core.camera_pipeline.CameraPipeline`,
+:func:`sample_pipeline` returns a :class:`~cd_spectra_addon.core.calibration.camera_pipeline.CameraPipeline`,
 the same model the calibration shot fits (with a finer, differently shaped curve than the fit
 can represent: the fit is not handed its own model).
 """
@@ -25,11 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from cd_spectra_addon.core import colour
-from cd_spectra_addon.core.illuminants import daylight_spd, planck_spd
-from cd_spectra_addon.core.camera_pipeline import CameraPipeline
-from cd_spectra_addon.core.cameras import CameraProfile
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra import colour
+from cd_spectra_addon.core.spectra.illuminants import daylight_spd, planck_spd
+from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
+from cd_spectra_addon.core.spectra.cameras import CameraProfile
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 __all__ = ["InCameraStyle", "sample_style", "pipeline_for", "sample_pipeline", "render_in_camera", "in_camera_exif",
            "TYPICAL"]

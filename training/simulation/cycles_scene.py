@@ -21,7 +21,7 @@ import numpy as np
 import OpenEXR
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.capture import Scene
+from cd_spectra_addon.core.scene.capture import Scene
 
 SHADER_PATH = Path(__file__).resolve().parent / "shaders" / "cd_grating.osl"
 _SOCKET_TYPES = {

@@ -20,10 +20,10 @@ import numpy as np
 from numpy.typing import NDArray
 from PIL import Image
 
-from cd_spectra_addon.core.cameras import CameraProfile
-from cd_spectra_addon.core.capture import Scene
-from cd_spectra_addon.core.diffraction import pixel_diffraction
-from cd_spectra_addon.core.srgb import srgb_encode
+from cd_spectra_addon.core.spectra.cameras import CameraProfile
+from cd_spectra_addon.core.scene.capture import Scene
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.photo.srgb import srgb_encode
 
 FORMATS = ("exr", "png", "png16", "jpg", "jpg422", "heic", "heic10", "tiff16")
 DSLR_JPEG_QUALITY = 95  # "jpg422": a DSLR's in-camera "fine" JPEG, 4:2:2 chroma (Canon, Nikon, Sony)

@@ -15,8 +15,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from cd_spectra_addon.core.capture import DEFAULT_PRESET
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation.basis import ENGINES, render_basis
 from training.simulation.render_photo import add_pose_arguments, scene_from_args

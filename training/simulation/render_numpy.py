@@ -1,6 +1,6 @@
 """numpy twin of the Cycles basis render: the per-band radiance cube of a posed capture.
 
-Same BRDF as the OSL shader (:mod:`cd_spectra_addon.core.grating`), same pinhole camera and
+Same BRDF as the OSL shader (:mod:`cd_spectra_addon.core.scene.grating`), same pinhole camera and
 box pixel filter; anti-aliasing by a stratified ``ss × ss`` grid per pixel instead of Cycles'
 random samples. The diffracted orders are sparse in λ (a pixel sees a lobe a few nm wide), so
 each sample only touches the bands near its lobe centre — ~50× less work than dense bands.
@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core import grating
-from cd_spectra_addon.core.capture import Scene
-from cd_spectra_addon.core.spectral_grid import WAVELENGTH_STEP_NM, WAVELENGTHS_NM, hat_integrals
+from cd_spectra_addon.core.scene import grating
+from cd_spectra_addon.core.scene.capture import Scene
+from cd_spectra_addon.core.spectra.grid import WAVELENGTH_STEP_NM, WAVELENGTHS_NM, hat_integrals
 
 __all__ = ["render_cube"]
 

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.capture import DEFAULT_PRESET, Pose, Scene, load_preset, preset_from_dict
-from cd_spectra_addon.core.spectra_files import read_spectra_csv, safe_stem
-from cd_spectra_addon.core.spectral_grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.spectra.spectra_files import read_spectra_csv, safe_stem
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import photo
 from training.simulation.basis import CACHE_DIR, ENGINES, basis_cube

@@ -8,7 +8,7 @@ from typing import Any
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ...core.capture import DEFAULT_PRESET
+from ...core.scene.capture import DEFAULT_PRESET
 from ...core.errors import CDSpectraError
 from .. import state
 from ..progress import progress
@@ -64,7 +64,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
             self.report({"ERROR"}, "Give the calibration profile a name")
             return {"CANCELLED"}
         try:
-            from ...core.calibration_shot import calibrate_photo
+            from ...core.inverse.calibration_shot import calibrate_photo
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra cannot calibrate ({exc})")
             return {"CANCELLED"}

@@ -19,7 +19,7 @@ from ..properties import (
     preset_items,
     stable_number,
 )
-from ...core.cameras import DEFAULT_CAMERA
+from ...core.spectra.cameras import DEFAULT_CAMERA
 
 _CHOICES = ("preset", "camera", "calibration")
 
@@ -60,7 +60,7 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
             self.report({"ERROR"}, "Choose a photo of the CD first")
             return {"CANCELLED"}
         try:
-            from ...core.estimate import estimate_photo
+            from ...core.inverse.estimate import estimate_photo
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra has no estimator ({exc})")
             return {"CANCELLED"}

@@ -23,7 +23,7 @@ else from it); imported by ``training.learning`` and the tests.
 
 from __future__ import annotations
 
-from cd_spectra_addon.core.illuminants import planck
+from cd_spectra_addon.core.spectra.illuminants import planck
 
 from training.learning.spd_prior.families import (
     DEFAULT_WEIGHTS,

@@ -46,25 +46,25 @@ import numpy as np
 from numpy.typing import NDArray
 
 # Planck's law and c2 only: the prior takes no CIE illuminant from that module (tested).
-from cd_spectra_addon.core.illuminants import C2_NM_K, planck
-from cd_spectra_addon.core.spectral_grid import N_BANDS, peak_normalise
+from cd_spectra_addon.core.spectra.illuminants import C2_NM_K, planck
+from cd_spectra_addon.core.spectra.grid import N_BANDS, peak_normalise
 
 from training.learning.spd_prior.grid import (
-    _D,
+    D_FINE,
     FINE_NM,
-    _FWHM_TO_SIGMA,
+    FWHM_TO_SIGMA,
     GRID,
-    _HAT3_NM,
-    _band_grid,
-    _energy_band,
+    HAT3_NM,
+    band_grid,
+    energy_band,
     fine_to_grid,
-    _gauss,
-    _hat3,
+    gauss,
+    hat3,
     lines_on_grid,
-    _render_lines,
-    _sigmoid,
+    render_lines,
+    sigmoid,
 )
-from training.learning.spd_prior.white_point import _cct_duv, _white_mix
+from training.learning.spd_prior.white_point import cct_duv, white_mix
 
 Array = NDArray[np.float64]
 Generator = np.random.Generator
@@ -129,7 +129,7 @@ def _logu(rng: Generator, lo: float, hi: float, size: int | tuple[int, ...]) -> 
 
 def _power(spd: Array) -> Array:
     """Radiant power on the grid (Σ·Δ), per row (the hats tile the range)."""
-    return spd.sum(-1) * _D
+    return spd.sum(-1) * D_FINE
 
 
 def _unit_power(spd: Array) -> Array:
@@ -171,7 +171,7 @@ def _group_lines(rng: Generator, n: int, groups: Sequence[_LineGroup], scatter: 
         etas.append(np.repeat(e[:, None], rel.size, 1).ravel())
     row, c, w, a, e = (np.concatenate(v) for v in (rows, cs, ws, areas, etas))
     keep = a > 0
-    return _render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
+    return render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
 
 
 def _random_lines(rng: Generator, n: int, count: tuple[int, int], lo_nm: float, hi_nm: float,
@@ -188,7 +188,7 @@ def _random_lines(rng: Generator, n: int, count: tuple[int, int], lo_nm: float, 
     a *= (power / np.maximum(a.sum(1), 1e-12))[:, None]
     row = np.repeat(np.arange(n)[:, None], kmax, 1)
     keep = a > 0
-    return _render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
+    return render_lines(row[keep], c[keep], w[keep], a[keep], e[keep], n)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -204,7 +204,7 @@ def _family(name: str) -> Callable[[Callable[[Generator, int], Array]], Callable
         _GENERATORS[name] = fn
 
         def public(rng: Generator, n: int | None = None) -> Array:
-            rows = _generate(name, rng, 1 if n is None else int(n))
+            rows = generate(name, rng, 1 if n is None else int(n))
             return rows[0] if n is None else rows
 
         public.__name__ = public.__qualname__ = fn.__name__
@@ -214,7 +214,7 @@ def _family(name: str) -> Callable[[Callable[[Generator, int], Array]], Callable
     return wrap
 
 
-def _generate(name: str, rng: Generator, n: int) -> Array:
+def generate(name: str, rng: Generator, n: int) -> Array:
     fn = _GENERATORS[name]
     parts = [fn(rng, min(_CHUNK, n - s)) for s in range(0, n, _CHUNK)]
     out = np.concatenate(parts) if parts else np.empty((0, N_BANDS))
@@ -231,9 +231,9 @@ def _smooth_curves(rng: Generator, n: int) -> Array:
     k = rng.integers(1, kmax + 1, n)
     mask = np.arange(kmax)[None, :] < k[:, None]
     c = _u(rng, 330.0, 830.0, (n, kmax))
-    s = _logu(rng, 40.0, 400.0, (n, kmax)) * _FWHM_TO_SIGMA
+    s = _logu(rng, 40.0, 400.0, (n, kmax)) * FWHM_TO_SIGMA
     a = _u(rng, 0.05, 1.0, (n, kmax)) * mask
-    gs = np.einsum("nk,nkb->nb", a, _gauss(lam[:, None, :], c[..., None], s[..., None]))
+    gs = np.einsum("nk,nkb->nb", a, gauss(lam[:, None, :], c[..., None], s[..., None]))
     gs = gs / gs.max(1, keepdims=True) + _u(rng, 0.0, 0.3, n)[:, None] * (rng.random(n) < 0.5)[:, None]
     # (b) log-normal random curve: exp of a low-order Fourier series with a decaying spectrum.
     kk = np.arange(1, 9)
@@ -284,12 +284,12 @@ def _glass(rng: Generator, n: int, lam: Array = GRID) -> Array:
     s = _u(rng, -0.25, 0.25, n)[:, None]
     t = np.where(tilt[:, None], t * np.exp(s * (lam - 580.0) / 200.0), t)
     nd = rng.random(n) < 0.1
-    absorb = (1.0 * _gauss(lam, 584.0, 7.0) + 0.3 * _gauss(lam, 528.0, 5.0) + 0.4 * _gauss(lam, 745.0, 6.0)
-              + 0.15 * _gauss(lam, 685.0, 5.0))
+    absorb = (1.0 * gauss(lam, 584.0, 7.0) + 0.3 * gauss(lam, 528.0, 5.0) + 0.4 * gauss(lam, 745.0, 6.0)
+              + 0.15 * gauss(lam, 685.0, 5.0))
     dens = _u(rng, 0.2, 1.2, n)[:, None]
     t = np.where(nd[:, None], t * 10.0 ** (-dens * absorb[None, :]), t)
     ir = rng.random(n) < 0.15
-    cut = 1.0 - _u(rng, 0.3, 0.9, n)[:, None] * _sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None])
+    cut = 1.0 - _u(rng, 0.3, 0.9, n)[:, None] * sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None])
                                                       / _u(rng, 8.0, 25.0, n)[:, None])
     return np.where(ir[:, None], t * cut, t)
 
@@ -315,9 +315,9 @@ def _extraterrestrial_sun(rng: Generator, n: int, lam: Array) -> Array:
     sun = planck(lam, t)
     depth = np.zeros_like(lam)
     for c, ew in _FRAUNHOFER:
-        depth = depth + ew / (1.0 * math.sqrt(2 * math.pi)) * _gauss(lam, c, 1.0)
+        depth = depth + ew / (1.0 * math.sqrt(2 * math.pi)) * gauss(lam, c, 1.0)
     sun = sun * np.clip(1.0 - _u(rng, 0.7, 1.2, n)[:, None] * depth[None, :], 0.05, 1.0)
-    blanket = 1.0 - _u(rng, 0.05, 0.2, n)[:, None] * _sigmoid((430.0 - lam) / 15.0)
+    blanket = 1.0 - _u(rng, 0.05, 0.2, n)[:, None] * sigmoid((430.0 - lam) / 15.0)
     return sun * blanket
 
 
@@ -331,16 +331,16 @@ def _atmosphere_tau(rng: Generator, n: int, lam: Array) -> tuple[Array, Array, A
     alpha = _u(rng, 0.5, 2.0, n)[:, None]
     aerosol = beta * mu ** (-alpha)
     du = _u(rng, 220.0, 450.0, n)[:, None]
-    chappuis = 4.8e-21 * (0.8 * _gauss(lam, 602.0, 40.0) + 0.3 * _gauss(lam, 573.0, 18.0)
-                          + 0.15 * _gauss(lam, 535.0, 25.0))
+    chappuis = 4.8e-21 * (0.8 * gauss(lam, 602.0, 40.0) + 0.3 * gauss(lam, 573.0, 18.0)
+                          + 0.15 * gauss(lam, 535.0, 25.0))
     ozone = du * 2.687e16 * chappuis
-    o2 = press * (1.5 * _gauss(lam, 760.8, 0.8) + 0.6 * _gauss(lam, 764.8, 1.8)
-                  + 0.4 * _gauss(lam, 687.3, 0.8) + 0.15 * _gauss(lam, 690.5, 1.5)
-                  + 0.03 * _gauss(lam, 628.5, 1.5)  # O₂ γ band
-                  + 0.015 * _gauss(lam, 577.0, 4.0) + 0.015 * _gauss(lam, 630.0, 4.0))  # O₂–O₂ bands
+    o2 = press * (1.5 * gauss(lam, 760.8, 0.8) + 0.6 * gauss(lam, 764.8, 1.8)
+                  + 0.4 * gauss(lam, 687.3, 0.8) + 0.15 * gauss(lam, 690.5, 1.5)
+                  + 0.03 * gauss(lam, 628.5, 1.5)  # O₂ γ band
+                  + 0.015 * gauss(lam, 577.0, 4.0) + 0.015 * gauss(lam, 630.0, 4.0))  # O₂–O₂ bands
     water_cm = _logu(rng, 0.3, 4.0, n)[:, None]
-    h2o = np.sqrt(water_cm / 2.0) * (0.25 * _gauss(lam, 724.0, 7.0) + 0.06 * _gauss(lam, 697.0, 3.0)
-                                     + 0.04 * _gauss(lam, 651.0, 4.0) + 0.03 * _gauss(lam, 592.0, 4.0))
+    h2o = np.sqrt(water_cm / 2.0) * (0.25 * gauss(lam, 724.0, 7.0) + 0.06 * gauss(lam, 697.0, 3.0)
+                                     + 0.04 * gauss(lam, 651.0, 4.0) + 0.03 * gauss(lam, 592.0, 4.0))
     return rayleigh + aerosol + ozone, o2, h2o, rayleigh, aerosol
 
 
@@ -392,12 +392,12 @@ def _led_targets(lo: float, hi: float) -> Callable[[Generator, int], tuple[Array
 
 def _blue_pump(rng: Generator, m: int, lo: float, hi: float, fwhm: tuple[float, float]) -> Array:
     """InGaN emission: Gaussian in energy with a red shoulder (band tail / indium fluctuation),
-    sampled at :data:`_HAT3_NM`."""
+    sampled at :data:`HAT3_NM`."""
     peak = _u(rng, lo, hi, m)
     w = _u(rng, *fwhm, m)
     shoulder = _u(rng, 0.03, 0.15, m)[:, None]
-    side = _energy_band(peak + _u(rng, 4.0, 12.0, m), w * _u(rng, 1.2, 1.6, m), _HAT3_NM)
-    return _energy_band(peak, w, _HAT3_NM) + shoulder * side
+    side = energy_band(peak + _u(rng, 4.0, 12.0, m), w * _u(rng, 1.2, 1.6, m), HAT3_NM)
+    return energy_band(peak, w, HAT3_NM) + shoulder * side
 
 
 def _led_white_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
@@ -408,12 +408,12 @@ def _led_white_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
     gw = np.where(luag, _u(rng, 90.0, 115.0, m), _u(rng, 105.0, 130.0, m))
     # Ce³⁺ re-absorbs the blue edge of its own emission (its 4f→5d₁ excitation band peaks at
     # 445–460 nm, σ ≈ 25 nm): the steep edge that leaves the 'cyan gap' after the pump.
-    reabs = _u(rng, 0.5, 2.0, m)[:, None] * _gauss(_HAT3_NM, _u(rng, 445.0, 460.0, m)[:, None], 25.0)
-    green = _energy_band(gpeak, gw, _HAT3_NM) * np.exp(-reabs)
+    reabs = _u(rng, 0.5, 2.0, m)[:, None] * gauss(HAT3_NM, _u(rng, 445.0, 460.0, m)[:, None], 25.0)
+    green = energy_band(gpeak, gw, HAT3_NM) * np.exp(-reabs)
     # Red: CaAlSiN₃/(Sr,Ca)AlSiN₃:Eu 610–660 nm, 70–100 nm; a low-energy second green band where
     # no red phosphor is used (keeps three parts; the solver then finds little of it).
-    red = _energy_band(_u(rng, 610.0, 660.0, m), _u(rng, 70.0, 100.0, m), _HAT3_NM)
-    parts = _hat3(np.stack([pump, green, red], axis=1))
+    red = energy_band(_u(rng, 610.0, 660.0, m), _u(rng, 70.0, 100.0, m), HAT3_NM)
+    parts = hat3(np.stack([pump, green, red], axis=1))
     parts = _unit_power(parts)
     fixed = np.zeros((m, N_BANDS))
     share = np.zeros(m)
@@ -429,16 +429,16 @@ def _led_white_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
 def led_white(rng: Generator, n: int) -> Array:
     """Phosphor-converted white LED (blue pump + garnet/LuAG + nitride red), aimed at an ANSI
     CCT bin in 2200–6500 K near the Planckian locus."""
-    return _white_mix(rng, n, _led_white_parts, _led_targets(2200.0, 6500.0))
+    return white_mix(rng, n, _led_white_parts, _led_targets(2200.0, 6500.0))
 
 
 def _led_violet_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
-    violet = _unit_power(_band_grid(_u(rng, 405.0, 420.0, m), _u(rng, 12.0, 20.0, m)))
-    blue = _unit_power(_band_grid(_u(rng, 445.0, 475.0, m), _u(rng, 40.0, 70.0, m)))
+    violet = _unit_power(band_grid(_u(rng, 405.0, 420.0, m), _u(rng, 12.0, 20.0, m)))
+    blue = _unit_power(band_grid(_u(rng, 445.0, 475.0, m), _u(rng, 40.0, 70.0, m)))
     v_share = _u(rng, 0.1, 0.5, m)[:, None]
     vb = (1.0 - v_share) * blue + v_share * violet
-    green = _band_grid(_u(rng, 505.0, 545.0, m), _u(rng, 70.0, 110.0, m))
-    red = _band_grid(_u(rng, 615.0, 655.0, m), _u(rng, 80.0, 100.0, m))
+    green = band_grid(_u(rng, 505.0, 545.0, m), _u(rng, 70.0, 110.0, m))
+    red = band_grid(_u(rng, 615.0, 655.0, m), _u(rng, 80.0, 100.0, m))
     parts = _unit_power(np.stack([vb, green, red], axis=1))
     return parts, np.zeros((m, N_BANDS)), np.zeros(m)
 
@@ -447,7 +447,7 @@ def _led_violet_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
 def led_violet(rng: Generator, n: int) -> Array:
     """Violet-pumped (405–420 nm) 'full-spectrum' LED with blue, green and red phosphors,
     aimed at 2700–6500 K."""
-    return _white_mix(rng, n, _led_violet_parts, _led_targets(2700.0, 6500.0))
+    return white_mix(rng, n, _led_violet_parts, _led_targets(2700.0, 6500.0))
 
 
 # (peak nm, FWHM range nm, energy-Gaussian band) of colour LEDs; phosphor lime/amber are broad.
@@ -484,7 +484,7 @@ def led_rgb(rng: Generator, n: int) -> Array:
         if not np.any(on):
             continue
         m = int(on.sum())
-        band = _band_grid(peak + _u(rng, -5.0, 5.0, m), _u(rng, *fw, m))
+        band = band_grid(peak + _u(rng, -5.0, 5.0, m), _u(rng, *fw, m))
         out[on] += weights[on, j, None] * _unit_power(band)
     white = weights[:, -1] > 0
     if np.any(white):
@@ -498,14 +498,14 @@ def _hg_lines(rng: Generator, m: int, fwhm: tuple[float, float] = (0.5, 2.0)) ->
 
 
 def _tri_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
-    blue = _band_grid(_u(rng, 445.0, 455.0, m), _u(rng, 45.0, 58.0, m))  # BAM:Eu²⁺
+    blue = band_grid(_u(rng, 445.0, 455.0, m), _u(rng, 45.0, 58.0, m))  # BAM:Eu²⁺
     tb = _group_lines(rng, m, [_LineGroup(_TB3, fwhm=(2.0, 6.0), eta=(0.0, 0.4), jitter_nm=0.5)])
     eu = _group_lines(rng, m, [_LineGroup(_EU3, fwhm=(1.5, 4.0), eta=(0.0, 0.4), jitter_nm=0.3)])
     parts = _unit_power(np.stack([blue, tb, eu], axis=1))
     fixed = _hg_lines(rng, m)
     # Five-band / deluxe lamps add broad bands (e.g. halophosphate, Sn²⁺ red) to the line phosphors.
     extra = rng.random(m) < 0.25
-    band = _band_grid(_u(rng, 480.0, 640.0, m), _u(rng, 60.0, 120.0, m))
+    band = band_grid(_u(rng, 480.0, 640.0, m), _u(rng, 60.0, 120.0, m))
     fixed = _unit_power(fixed) + extra[:, None] * _u(rng, 0.5, 3.0, m)[:, None] * _unit_power(band)
     share = _u(rng, 0.04, 0.15, m) + extra * 0.1
     return parts, fixed, share
@@ -515,13 +515,13 @@ def _tri_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
 def fluorescent_tri(rng: Generator, n: int) -> Array:
     """Tri-phosphor tube / CFL: Hg lines + BAM blue band + Tb³⁺ green + Eu³⁺ red line phosphors,
     mixed to a nominal lamp CCT (2700–6500 K)."""
-    return _white_mix(rng, n, _tri_parts, _led_targets(2700.0, 6500.0))
+    return white_mix(rng, n, _tri_parts, _led_targets(2700.0, 6500.0))
 
 
 def _halo_parts(rng: Generator, m: int) -> tuple[Array, Array, Array]:
-    sb = _band_grid(_u(rng, 470.0, 490.0, m), _u(rng, 110.0, 145.0, m))
-    mn = _band_grid(_u(rng, 575.0, 590.0, m), _u(rng, 70.0, 90.0, m))
-    red = _band_grid(_u(rng, 620.0, 645.0, m), _u(rng, 90.0, 130.0, m))
+    sb = band_grid(_u(rng, 470.0, 490.0, m), _u(rng, 110.0, 145.0, m))
+    mn = band_grid(_u(rng, 575.0, 590.0, m), _u(rng, 70.0, 90.0, m))
+    red = band_grid(_u(rng, 620.0, 645.0, m), _u(rng, 90.0, 130.0, m))
     parts = _unit_power(np.stack([sb, mn, red], axis=1))
     return parts, _hg_lines(rng, m), _u(rng, 0.03, 0.2, m)
 
@@ -537,7 +537,7 @@ def fluorescent_halo(rng: Generator, n: int) -> Array:
     """Halophosphate tube (Ca₅(PO₄)₃(F,Cl):Sb,Mn): broad Sb³⁺ blue + Mn²⁺ orange bands + Hg
     lines (3–20 % of the luminance); 'deluxe' ones add a broad red band (≤ 35 % of the
     luminance). Mixed to warm…daylight with the slightly green tint these lamps are known for."""
-    return _white_mix(rng, n, _halo_parts, _halo_targets, part_share=[(0.0, 1.0), (0.0, 1.0), (0.0, 0.35)])
+    return white_mix(rng, n, _halo_parts, _halo_targets, part_share=[(0.0, 1.0), (0.0, 1.0), (0.0, 0.35)])
 
 
 # ---- high-intensity discharge ---------------------------------------------------------------
@@ -596,7 +596,7 @@ def metal_halide(rng: Generator, n: int) -> Array:
     out = _mh_raw(rng, n)
     todo = np.flatnonzero(rng.random(n) < 0.85)
     for _ in range(100):
-        cct, duv = _cct_duv(out[todo])
+        cct, duv = cct_duv(out[todo])
         todo = todo[(cct < 2500.0) | (cct > 8000.0) | (np.abs(duv) > 0.02)]
         if todo.size == 0:
             break
@@ -660,7 +660,7 @@ def xenon(rng: Generator, n: int) -> Array:
     cont = _unit_power(cont * np.exp(0.05 * rng.standard_normal((n, 1)) * (GRID - 580.0) / 200.0))
     lines = _group_lines(rng, n, [_LineGroup(_XE, power=(0.005, 0.04), fwhm=(1.0, 5.0), eta=(0.2, 0.7))])
     coat = np.where((rng.random(n) < 0.3)[:, None],
-                    0.05 + 0.95 * _sigmoid((GRID - _u(rng, 390.0, 430.0, n)[:, None]) / 6.0), 1.0)
+                    0.05 + 0.95 * sigmoid((GRID - _u(rng, 390.0, 430.0, n)[:, None]) / 6.0), 1.0)
     return (cont + lines) * coat
 
 
@@ -681,7 +681,7 @@ def xenon_flash(rng: Generator, n: int) -> Array:
     xe2 = _group_lines(rng, n, [_LineGroup(_XE_II, power=(0.01, 0.08), fwhm=(1.0, 6.0), eta=(0.3, 0.8))])
     spd = cont + (1.0 - density)[:, None] * xe1 + density[:, None] * xe2
     window = np.where((rng.random(n) < 0.6)[:, None],
-                      0.02 + 0.98 * _sigmoid((GRID - _u(rng, 385.0, 440.0, n)[:, None]) / _u(rng, 5.0, 15.0, n)[:, None]),
+                      0.02 + 0.98 * sigmoid((GRID - _u(rng, 385.0, 440.0, n)[:, None]) / _u(rng, 5.0, 15.0, n)[:, None]),
                       1.0)
     return spd * window
 
@@ -702,7 +702,7 @@ _GROW_CHANNELS = {
 def _grow_channel(rng: Generator, name: str, power: Array) -> Array:
     (lo, hi), fwhm = _GROW_CHANNELS[name]
     n = power.size
-    return power[:, None] * _unit_power(_band_grid(_u(rng, lo, hi, n), _u(rng, *fwhm, n)))
+    return power[:, None] * _unit_power(band_grid(_u(rng, lo, hi, n), _u(rng, *fwhm, n)))
 
 
 @_family("led_grow")
@@ -740,17 +740,17 @@ def _filter_transmission(rng: Generator, n: int) -> Array:
     c2 = c1 + _u(rng, 30.0, 200.0, n)[:, None]
     s1 = _u(rng, 5.0, 40.0, n)[:, None]
     s2 = _u(rng, 5.0, 40.0, n)[:, None]
-    lp = _sigmoid((lam - c1) / s1)
-    sp = _sigmoid((c1 - lam) / s1)
-    bp = _sigmoid((lam - c1) / s1) * _sigmoid((c2 - lam) / s2)
-    notch = 1.0 - _u(rng, 0.3, 0.95, n)[:, None] * _gauss(lam, _u(rng, 480.0, 620.0, n)[:, None],
+    lp = sigmoid((lam - c1) / s1)
+    sp = sigmoid((c1 - lam) / s1)
+    bp = sigmoid((lam - c1) / s1) * sigmoid((c2 - lam) / s2)
+    notch = 1.0 - _u(rng, 0.3, 0.95, n)[:, None] * gauss(lam, _u(rng, 480.0, 620.0, n)[:, None],
                                                          _u(rng, 15.0, 60.0, n)[:, None])
     mired = _u(rng, -150.0, 160.0, n)[:, None] * 1e-6  # CTB < 0 < CTO (full CTO ≈ +159 mired)
     shift = np.exp(-C2_NM_K * mired / lam)
     shift /= shift.max(1, keepdims=True)
     dye = np.exp(-np.abs(_smooth_curves(rng, n)) * _u(rng, 0.5, 3.0, n)[:, None])
     t = np.select([kind == 0, kind == 1, kind == 2, kind == 3, kind == 4], [lp, sp, bp, notch, shift], dye)
-    red_leak = (rng.random(n) < 0.3)[:, None] * _sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None]) / 10.0)
+    red_leak = (rng.random(n) < 0.3)[:, None] * sigmoid((lam - _u(rng, 680.0, 760.0, n)[:, None]) / 10.0)
     t = np.maximum(t, red_leak * _u(rng, 0.2, 0.9, n)[:, None])
     t = t ** _logu(rng, 0.3, 3.0, n)[:, None]
     floor = _logu(rng, 1e-3, 5e-2, n)[:, None]

@@ -1,6 +1,6 @@
 """The 5 nm hat grid of the prior: putting lines, bands and curves on it exactly enough, fast.
 
-A grid sample stands for a 5 nm hat (see :mod:`cd_spectra_addon.core.spectral_grid`),
+A grid sample stands for a 5 nm hat (see :mod:`cd_spectra_addon.core.spectra.grid`),
 and every component is hat-averaged as ``resample_to_grid`` would from a fine sampling, only
 cheaper (100 000 spectra must take seconds):
 
@@ -23,15 +23,15 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cd_spectra_addon.core.spectral_grid import N_BANDS, WAVELENGTH_STEP_NM, WAVELENGTHS_NM, resample_to_grid
+from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTH_STEP_NM, WAVELENGTHS_NM, resample_to_grid
 
 Array = NDArray[np.float64]
 
 GRID = WAVELENGTHS_NM
-_D = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
+D_FINE = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
 FINE_STEP_NM = 0.5
 FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
-_FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
+FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -66,7 +66,7 @@ def _lorentz_f2(t: Array, gamma: Array) -> Array:
 _WIN = 4
 _MIN_LINE_FWHM = 0.3
 _MAX_LINE_FWHM = 8.0
-_TAB_DELTA = np.linspace(-0.5 * _D, 0.5 * _D, 201)  # line centre minus its nearest grid sample
+_TAB_DELTA = np.linspace(-0.5 * D_FINE, 0.5 * D_FINE, 201)  # line centre minus its nearest grid sample
 _TAB_LOGW = np.linspace(math.log(_MIN_LINE_FWHM), math.log(_MAX_LINE_FWHM), 129)
 _FAR_PAD = 20  # far field of lines up to 100 nm outside the grid
 
@@ -76,9 +76,9 @@ def _window_exact(delta: Array, fwhm: Array, lorentz: bool) -> Array:
     −WIN..WIN: the hat is the second difference of a ramp, so hat ∗ profile is the second
     difference of the profile's second antiderivative at neighbouring samples."""
     k = np.arange(-_WIN - 1, _WIN + 2)
-    t = _D * k[None, :] - delta[:, None]
-    f2 = _lorentz_f2(t, 0.5 * fwhm[:, None]) if lorentz else _gauss_f2(t, fwhm[:, None] * _FWHM_TO_SIGMA)
-    return (f2[:, 2:] - 2.0 * f2[:, 1:-1] + f2[:, :-2]) / (_D * _D)
+    t = D_FINE * k[None, :] - delta[:, None]
+    f2 = _lorentz_f2(t, 0.5 * fwhm[:, None]) if lorentz else _gauss_f2(t, fwhm[:, None] * FWHM_TO_SIGMA)
+    return (f2[:, 2:] - 2.0 * f2[:, 1:-1] + f2[:, :-2]) / (D_FINE * D_FINE)
 
 
 @cache
@@ -103,7 +103,7 @@ def _far_kernels() -> Array:
     src = np.arange(-_FAR_PAD, N_BANDS + _FAR_PAD)
     k = (np.arange(N_BANDS)[None, :] - src[:, None]).astype(np.float64)
     far = np.abs(k) > _WIN
-    kd = np.where(far, k * _D, 1.0)
+    kd = np.where(far, k * D_FINE, 1.0)
     kernels = [(q + 1) * kd ** -(2.0 + q) for q in range(6)]
     kernels += [math.comb(q + 3, 3) * kd ** -(4.0 + q) for q in range(3)]
     kernels += [kd**-6.0]
@@ -134,19 +134,19 @@ def lines_on_grid(
     row = np.repeat(np.arange(n_rows), c.shape[-1])
     c, w, a, eta = (v.reshape(-1) for v in (c, w, a, eta))
     keep = a > 0
-    out = _render_lines(row[keep], c[keep], w[keep], a[keep], eta[keep], n_rows)
+    out = render_lines(row[keep], c[keep], w[keep], a[keep], eta[keep], n_rows)
     return out.reshape(lead + (N_BANDS,))
 
 
-def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_rows: int) -> Array:
+def render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_rows: int) -> Array:
     """Flat list of lines (row index, centre, FWHM, area, Lorentz fraction) → (n_rows, 81)."""
     out = np.zeros((n_rows, N_BANDS))
-    j0 = np.rint((c - GRID[0]) / _D).astype(np.int64)
+    j0 = np.rint((c - GRID[0]) / D_FINE).astype(np.int64)
     inside = (j0 >= -_FAR_PAD) & (j0 < N_BANDS + _FAR_PAD)
     row, c, fwhm, area, eta, j0 = (v[inside] for v in (row, c, fwhm, area, eta, j0))
     if row.size == 0:
         return out
-    delta = c - (GRID[0] + _D * j0)
+    delta = c - (GRID[0] + D_FINE * j0)
     # Window: bilinear lookup in (δ, log FWHM); each table row conserves energy, so does the mix.
     last_d, last_w = _TAB_DELTA.size - 1.000001, _TAB_LOGW.size - 1.000001
     fd = np.clip((delta - _TAB_DELTA[0]) / (_TAB_DELTA[1] - _TAB_DELTA[0]), 0.0, last_d)
@@ -165,7 +165,7 @@ def _render_lines(row: Array, c: Array, fwhm: Array, area: Array, eta: Array, n_
     if np.any(has_l):
         r, d, g = row[has_l], delta[has_l], 0.5 * fwhm[has_l]
         amp = (eta * area)[has_l] * g / math.pi
-        mu2, mu4 = _D * _D / 6.0, _D**4 / 15.0
+        mu2, mu4 = D_FINE * D_FINE / 6.0, D_FINE**4 / 15.0
         b = amp * (3.0 * mu2 - g * g)
         c3 = amp * (5.0 * mu4 - 10.0 * mu2 * g * g + g**4)
         chans = [amp * d**q for q in range(6)] + [b * d**q for q in range(3)] + [c3]
@@ -189,36 +189,36 @@ def fine_to_grid(values: ArrayLike) -> Array:
     return np.asarray(values, dtype=np.float64) @ _fine_matrix()
 
 
-def _gauss(lam: Array, centre: Array, sigma: Array) -> Array:
+def gauss(lam: Array, centre: Array, sigma: Array) -> Array:
     return np.exp(-0.5 * ((lam - centre) / sigma) ** 2)
 
 
 # Hat average of smooth curves by a 3-point rule matching the hat's moments up to the 5th
 # (nodes 0, ±√0.4·Δ, weights 1−2w, w with w = 1/4.8): error < 2e-4 of the peak for bands of
 # FWHM ≥ 12 nm, at 3 evaluations per sample instead of a fine grid and a matrix product.
-_HAT3_OFFSETS = np.array([-math.sqrt(0.4), 0.0, math.sqrt(0.4)]) * _D
+_HAT3_OFFSETS = np.array([-math.sqrt(0.4), 0.0, math.sqrt(0.4)]) * D_FINE
 _HAT3_W = np.array([1.0 / 4.8, 1.0 - 2.0 / 4.8, 1.0 / 4.8])
-_HAT3_NM: Array = (GRID[:, None] + _HAT3_OFFSETS[None, :]).ravel()
+HAT3_NM: Array = (GRID[:, None] + _HAT3_OFFSETS[None, :]).ravel()
 
 
-def _hat3(values: Array) -> Array:
-    """Values at :data:`_HAT3_NM` (last axis) → hat averages on the grid."""
+def hat3(values: Array) -> Array:
+    """Values at :data:`HAT3_NM` (last axis) → hat averages on the grid."""
     return values.reshape(values.shape[:-1] + (N_BANDS, 3)) @ _HAT3_W
 
 
-def _band_grid(peak_nm: Array, fwhm_nm: Array) -> Array:
+def band_grid(peak_nm: Array, fwhm_nm: Array) -> Array:
     """Energy-Gaussian band hat-averaged onto the grid."""
-    return _hat3(_energy_band(peak_nm, fwhm_nm, _HAT3_NM))
+    return hat3(energy_band(peak_nm, fwhm_nm, HAT3_NM))
 
 
-def _energy_band(peak_nm: Array, fwhm_nm: Array, lam: Array = FINE_NM) -> Array:
+def energy_band(peak_nm: Array, fwhm_nm: Array, lam: Array = FINE_NM) -> Array:
     """Band that is Gaussian in photon energy (phosphors, LEDs), per unit wavelength: a natural
     red tail. Shapes (...,) → (..., len(lam))."""
     p = np.asarray(peak_nm, dtype=np.float64)[..., None]
-    s_nu = np.asarray(fwhm_nm, dtype=np.float64)[..., None] * _FWHM_TO_SIGMA * 1e7 / p**2
+    s_nu = np.asarray(fwhm_nm, dtype=np.float64)[..., None] * FWHM_TO_SIGMA * 1e7 / p**2
     nu = 1e7 / lam
     return np.exp(-0.5 * ((nu - 1e7 / p) / s_nu) ** 2) * (p / lam) ** 2
 
 
-def _sigmoid(x: Array) -> Array:
+def sigmoid(x: Array) -> Array:
     return 0.5 * (1.0 + np.tanh(0.5 * x))

@@ -12,10 +12,10 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.solve import GaussianPrior
-from cd_spectra_addon.core.spectral_grid import N_BANDS
+from cd_spectra_addon.core.spectrum.solve import GaussianPrior
+from cd_spectra_addon.core.spectra.grid import N_BANDS
 
-from training.learning.spd_prior.families import DEFAULT_WEIGHTS, FAMILIES, _generate
+from training.learning.spd_prior.families import DEFAULT_WEIGHTS, FAMILIES, generate
 
 Array = NDArray[np.float64]
 
@@ -51,7 +51,7 @@ def sample_spds(
     for k, fam in enumerate(fams):
         idx = np.flatnonzero(label_idx == k)
         if idx.size:
-            out[idx] = _generate(fam, rng, idx.size)
+            out[idx] = generate(fam, rng, idx.size)
     return out, [fams[i] for i in label_idx]
 
 

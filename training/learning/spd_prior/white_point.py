@@ -14,8 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 # Planck's law and c2 only: the prior takes no CIE illuminant from that module (tested).
-from cd_spectra_addon.core.illuminants import planck
-from cd_spectra_addon.core.spectral_grid import N_BANDS
+from cd_spectra_addon.core.spectra.illuminants import planck
+from cd_spectra_addon.core.spectra.grid import N_BANDS
 
 from training.learning.spd_prior.grid import GRID
 
@@ -90,7 +90,7 @@ def _solve_mix(parts: Array, fixed: Array, fixed_share: Array, target_xy: Array)
     return w, scale
 
 
-def _white_mix(
+def white_mix(
     rng: Generator,
     n: int,
     make: Callable[[Generator, int], tuple[Array, Array, Array]],
@@ -128,7 +128,7 @@ def _locus_table() -> tuple[Array, Array]:
     return t, _uv(_xyz(planck(GRID, t[:, None])))
 
 
-def _cct_duv(spd: Array) -> tuple[Array, Array]:
+def cct_duv(spd: Array) -> tuple[Array, Array]:
     """Approximate CCT and Duv (nearest of 600 tabulated Planckian points, CCT within ~0.4 %):
     enough to keep mostly-white lamp families white."""
     t, loc = _locus_table()

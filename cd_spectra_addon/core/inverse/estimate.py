@@ -1,0 +1,405 @@
+"""Photo → SPD: the whole inverse, with the reasons a result should or should not be trusted.
+
+1. load and linearise (:mod:`.images`), focal length in pixels from EXIF or the preset;
+2. capture geometry and the λ₁ readout (:mod:`.analysis`), optional calibration gains;
+3. physics: a non-negative MAP solve against the forward matrix under the synthetic prior;
+4. the learned model (:mod:`.model`) refines it into the final SPD and its uncertainty;
+5. confidence from what could go wrong — clipping, missing bins, a geometry the fit could not
+   explain, an SPD that does not reproduce the photo — each with a plain-language warning;
+6. colour: xy, CCT, Duv and the emission colour in the scene's working space (:mod:`.colour`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..spectra import colour
+from .prepare import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
+                       network_inputs, physics_spd, prepare)
+from ..calibration.calibration import Calibration, load_calibration
+from ..calibration.camera_fit import CameraPrior, camera_prior
+from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
+from ..scene.capture import DEFAULT_PRESET, Preset, Scene, load_preset
+from ..planning.capture_advice import capture_angles, coverage_advice
+from ..readout.colour_check import wavelength_shift_nm
+from ..errors import CDSpectraError, PhotoError
+from .load import load_for_estimate
+from ..photo.images import LinearImage
+from ..spectrum.model import SpectralModel, load_model
+from ..pose.pose_fit import PoseFit, colour_blur_nm
+from ..readout.readout import Readout
+from .result import DiscFit, Estimate
+from ..spectrum.solve import GaussianPrior, band_blend, fused_solve
+from ..spectra.grid import WAVELENGTHS_NM
+
+AUTO = "auto"  # the camera profile from the photo's EXIF
+# The general-pose fit models a camera aimed a few degrees off (issue 10: camera ±3° costs no
+# accuracy in bench/pose_errors.md), but it cannot tell such a camera from a cropped photo, whose
+# principal point is no longer the image centre; before the aim was fitted, a disc 4 / 8 / 16 mm
+# off the centre at 210 mm (1 / 2 / 4°) cost 0.004 → 0.03 / 0.07 / 0.14 (bench/reliability.md).
+# Beyond a few degrees the photo is flagged and its confidence falls to the floor.
+AIM_OK_DEG = 4.0
+AIM_SPAN_DEG = 3.0
+# The wavelength axis against the camera's own colours (colour_check): on synthetic spectra at
+# the true pose |shift| stayed below 2.1 nm (99th percentile, 192 photos of the four set-ups);
+# a pose 0.3° off read 3-17 nm.
+COLOUR_SHIFT_OK_NM = 2.5
+COLOUR_SHIFT_SPAN_NM = 7.5
+# Camera or lamp angle from the disc's axis this far from the preset's (a tilted disc moves both):
+# up to 3° the fit recovers the spectrum (bench/pose_errors.md); at 5° of tilt it failed on the
+# near-axis set-ups (MAE ×10) with every other check passing.
+POSE_OK_DEG = 3.5
+POSE_SPAN_DEG = 4.0
+# An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
+PROCESSED_CONFIDENCE = 0.5
+# An offset this large (share of full scale) is worth telling: it costs 8-bit levels and may
+# not be uniform.
+AMBIENT_WARN = 0.01
+Progress = Callable[[float, str], None]
+
+__all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
+           "solving_camera"]
+
+
+def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
+    """The sensitivities to solve with and whether they are the generic (unknown camera) ones."""
+    if name == GENERIC_CAMERA:
+        if model is None or "generic_camera" not in model.metadata:
+            raise CDSpectraError("the generic camera profile comes with the model, which is not available")
+        return CameraProfile(GENERIC_CAMERA, np.asarray(model.metadata["generic_camera"], dtype=np.float64)), True
+    return load_camera(name), False
+
+
+def camera_prior_for(model: SpectralModel | None) -> CameraPrior:
+    """The prior over camera sensitivities whose mean is ``model``'s generic profile: its
+    training cameras (all shipped profiles without a model that names them)."""
+    cameras = (model.metadata.get("cameras") or {}) if model is not None else {}
+    names = [n for n in cameras.get("train", []) if n in camera_names()] if isinstance(cameras, dict) else []
+    return camera_prior(names or camera_names())
+
+
+def solving_camera(camera: CameraProfile, generic: bool, calibration: Calibration | None
+                   ) -> tuple[CameraProfile, bool]:
+    """The sensitivities a photo is solved with, and whether to call them generic: a calibration
+    that measured the camera's own sensitivities replaces the profile, and the network is told
+    the camera is known (generic + calibration, 30 synthetic SPDs of the training prior,
+    `camera_files --synthetic`: MAE 0.016 told "known", 0.023 told "generic")."""
+    if calibration is None or calibration.sensitivities is None:
+        return camera, generic
+    return CameraProfile(camera.name, calibration.sensitivities), False
+
+
+def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
+                   ) -> tuple[CameraProfile, bool, str, str | None]:
+    """(sensitivities, generic?, profile name, warning) for ``name``; ``"auto"`` picks the
+    profile from the photo's EXIF Make/Model, else the generic profile (the default camera's
+    without a model) with a warning that says so."""
+    if name != AUTO:
+        cam, generic = camera_for(name, model)
+        return cam, generic, name, None
+    found = camera_from_exif(image.exif.make, image.exif.model)
+    if found:
+        cam, generic = camera_for(found, model)
+        return cam, generic, found, None
+    has_generic = model is not None and "generic_camera" in model.metadata
+    fallback = GENERIC_CAMERA if has_generic else DEFAULT_CAMERA
+    who = " ".join(p for p in (image.exif.make, image.exif.model) if p) or "not named in the photo's EXIF"
+    note = (f"the camera ({who}) is not one of the {len(camera_names())} camera profiles: using the "
+            f"{'generic' if has_generic else DEFAULT_CAMERA.replace('_', ' ')} profile — pick the nearest camera, "
+            "or take a calibration shot, for the best accuracy")
+    cam, generic = camera_for(fallback, model)
+    return cam, generic, fallback, note
+
+
+def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float64]] | None:
+    if model is None or "prior" not in model.metadata:
+        return None
+    cached = model.metadata.get("_prior_cache")
+    if cached is None:
+        p = model.metadata["prior"]
+        prior = GaussianPrior(np.asarray(p["mean"]), np.asarray(p["covariance"]))
+        cached = (prior, prior.precision())
+        model.metadata["_prior_cache"] = cached
+    return cached
+
+
+def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, float]:
+    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built:
+    a calibrated photo's camera is known better, so it may trust the photo more."""
+    f = model.metadata.get("fusion") or {}
+    if calibrated and "calibrated_strength" in f:
+        return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
+    return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
+
+
+def _band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.float64] | None:
+    """w(λ) of the network against physics + prior (1 = network), chosen per band on synthetic
+    photos when the model was built; None (the network everywhere) for a model without one."""
+    f = model.metadata.get("fusion") or {}
+    w = f.get("calibrated_band_weight") if calibrated and "calibrated_band_weight" in f else f.get("band_weight")
+    return None if w is None else np.asarray(w, dtype=np.float64)
+
+
+def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Per λ₁ bin, the share of the readout's pixel weight (Σ visibility²) that ``mask`` flags."""
+    px = readout.pixels
+    flagged = np.asarray(mask).reshape(-1)[px.index]
+    vis2 = px.visibility ** 2
+    n = readout.lambda_nm.size
+    total = np.bincount(readout.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
+    hit = np.bincount(readout.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
+    return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
+
+
+def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
+                image: LinearImage | None, generic: bool, focal_source: str,
+                preset: Preset | None = None) -> tuple[float, list[str], dict]:
+    """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
+    warnings: list[str] = []
+    score = 1.0
+    preset = preset or analysis.scene.preset
+    lam = readout.lambda_nm
+    core = (lam >= 400) & (lam <= 700)
+    coverage = float(np.mean(readout.valid[core]))
+    # The readout leaves out clipped and NaN/Inf pixels alike; only clipping is over-exposure.
+    clipped = readout.saturated_fraction if image is None or not np.any(image.invalid) else \
+        _bin_share(readout, image.saturated)
+    sat_core = float(np.mean(clipped[core] > 0.05))
+    # Re-render the readout from the estimate and compare with the photo.
+    valid = readout.valid
+    pred = np.einsum("bcl,l->bc", matrix, spd)
+    meas = readout.values
+    if np.any(valid):
+        p, m = pred[valid], meas[valid]
+        scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
+        residual = float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
+    else:
+        residual = 1.0
+    stats = {"profile_residual": residual, "coverage_400_700": coverage, "saturated_bins": sat_core,
+             "geometry_residual": float(analysis.fit.residual)}
+    blur = colour_blur_nm(analysis.scene.preset, analysis.scene.preset.light.lobe_sigma, analysis.focal_px)
+    shift = wavelength_shift_nm(readout, analysis.camera.sensitivities, blur)
+    stats["colour_shift_nm"] = math.nan if shift is None else shift
+    if shift is not None and abs(shift) > COLOUR_SHIFT_OK_NM:
+        warnings.append(f"the rainbow's colours put its wavelengths {abs(shift):.0f} nm {'below' if shift > 0 else 'above'} "
+                        "where the fitted capture does (a green pixel cannot be 620 nm): the pose or the camera profile "
+                        "is off — check the camera choice, and that the set-up matches the preset")
+        score *= max(0.3, 1.0 - (abs(shift) - COLOUR_SHIFT_OK_NM) / COLOUR_SHIFT_SPAN_NM)
+    fitted, nominal = capture_angles(analysis.scene), capture_angles(Scene(preset))
+    departure = max(abs(fitted[0] - nominal[0]), abs(fitted[1] - nominal[1]))
+    stats["pose_departure_deg"] = departure
+    if departure > POSE_OK_DEG:
+        warnings.append(f"the photo was taken about {departure:.0f}° away from the set-up's angles (camera "
+                        f"{fitted[0]:.0f}°, lamp {fitted[1]:.0f}° from the disc's axis; preset {nominal[0]:.0f}° and "
+                        f"{nominal[1]:.0f}°, a tilted disc counts too): the fit covers that, but less surely — "
+                        "lay the disc flat and place camera and lamp as the preset says")
+        score *= max(0.4, 1.0 - (departure - POSE_OK_DEG) / POSE_SPAN_DEG)
+    if sat_core > 0.02:
+        warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
+        score *= max(0.2, 1.0 - 2.0 * sat_core)
+    if coverage < 0.95:
+        where = coverage_advice(preset, analysis.scene)
+        warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — {where}")
+        # Squared: the missing part of 400–700 nm comes from the prior alone (lamp 45 mm beside
+        # the lens: 38 % coverage, MAE 0.37 at confidence 0.42 with a linear penalty).
+        score *= max(0.1, coverage * coverage)
+    if image is not None and np.any(image.invalid):
+        bad = float(np.mean(_bin_share(readout, image.invalid)[core]))
+        stats["invalid_share"] = bad
+        warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
+                        "check the raw conversion or the EXR export")
+        score *= max(0.2, 1.0 - 2.0 * bad)
+    ambient = float(np.max(analysis.ambient))
+    stats["ambient_offset"] = ambient
+    if ambient >= AMBIENT_WARN:
+        warnings.append(f"room light (or the camera's black level) adds {100 * ambient:.1f}% of full scale to the "
+                        "whole photo: it was measured on the dark part of the disc and subtracted — a darker room "
+                        "is more accurate")
+        score *= max(0.5, 1.0 - 5.0 * ambient)
+    # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
+    peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
+    if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
+        warnings.append(f"the rainbow is very dark (its brightest part is {100 * peak:.1f}% of full scale), so 8-bit "
+                        "rounding limits the accuracy — use a longer exposure or save 16-bit/raw")
+        score *= max(0.2, peak / DIM_LEVEL_8BIT)
+    fit = analysis.fit
+    width, height = analysis.scene.preset.camera.image_size_px
+    off_px = math.hypot(fit.center_px[0] - (height - 1) / 2.0, fit.center_px[1] - (width - 1) / 2.0)
+    aim_deg = math.degrees(math.atan2(off_px, fit.focal_px))
+    stats["disc_offset_mm"] = off_px * fit.distance_mm / fit.focal_px
+    stats["aim_off_deg"] = aim_deg
+    if aim_deg > AIM_OK_DEG:
+        warnings.append(f"the disc is not centred: the camera is aimed {aim_deg:.0f}° away from the disc's centre — aim "
+                        "it at the centre (a cropped photo also moves it: use the whole frame)")
+        score *= max(0.2, 1.0 - (aim_deg - AIM_OK_DEG) / AIM_SPAN_DEG)
+    if analysis.fit.residual > 0.15:
+        warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "
+                        "lamp are on the disc's axis and the preset matches the capture")
+        score *= max(0.2, 1.0 - 2.0 * (analysis.fit.residual - 0.15))
+    if residual > 0.05:
+        warnings.append("the recovered spectrum does not reproduce the photo well — treat it as approximate")
+        score *= max(0.2, 1.0 - 5.0 * (residual - 0.05))
+    noise = float(np.median(readout.noise[valid])) if np.any(valid) else 1.0
+    snr = peak / max(noise, 1e-12)
+    stats["snr"] = snr
+    if snr < 30:
+        warnings.append("low signal: the rainbow is dim or noisy — use a longer exposure or a brighter lamp")
+        score *= max(0.2, snr / 30)
+    if generic:
+        warnings.append("generic camera profile: pick your camera (or calibrate) for the best accuracy")
+        score *= 0.85
+    if focal_source == "preset":
+        warnings.append("no focal length in the photo's EXIF: assuming the preset's field of view")
+        score *= 0.8
+    if image is not None and image.is_grey:
+        warnings.append("the photo is greyscale: colour is what separates wavelengths — use the colour photo")
+        score *= 0.3
+    return float(np.clip(score, 0.0, 1.0)), warnings, stats
+
+
+def estimate_image(
+    image: LinearImage,
+    *,
+    preset: str | Preset = DEFAULT_PRESET,
+    camera: str = AUTO,
+    calibration: str | Calibration | None = None,
+    working_space: str = "Linear Rec.709",
+    model: SpectralModel | None | str = "shipped",
+    focal_px: float | None = None,
+    progress: Progress | None = None,
+    method: str = "model",
+    fit: PoseFit | None = None,
+    fusion: tuple[float, float] | None = None,
+) -> Estimate:
+    """Estimate from an already loaded photo (see :func:`estimate_photo`).
+
+    ``method``: "model" (physics + prior + network, the product), "prior" (physics under the
+    Gaussian prior only) or "physics" (smoothness-regularised physics only) — the benchmark's
+    operating points.
+    """
+    if method not in ("model", "prior", "physics"):
+        raise CDSpectraError(f"unknown method {method!r}")
+    t0 = time.perf_counter()
+    report = progress or (lambda _f, _m: None)
+    preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
+    mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
+    cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
+    cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+    if cal is not None and cal.sensitivities is not None:
+        cam, generic = solving_camera(cam, generic, cal)
+        camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
+    report(0.2, "Finding the disc")
+    analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
+    readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
+    report(0.6, "Solving for the spectrum")
+    t2 = time.perf_counter()
+    matrix = analysis.matrix
+    e_phys = physics_spd(analysis, _prior(mdl) if method != "physics" else None)
+    if not np.any(e_phys > 0):
+        raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
+    sigma = analysis.scene.preset.light.lobe_sigma
+    if mdl is not None and method == "model":
+        x = network_inputs(analysis, e_phys)
+        net, std = mdl.predict(x)
+        strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
+        spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
+        weight = _band_weight(mdl, calibrated=cal is not None)
+        if weight is not None and np.any(weight < 1.0):
+            spd = band_blend(readout, matrix, spd, e_phys, weight)
+    else:
+        spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
+    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
+    unusable = not spd.max() > 0  # the network returned nothing usable (all zero, negative or NaN)
+    if unusable:
+        spd = e_phys / e_phys.max()
+    spd = spd / spd.max()
+    std = np.nan_to_num(std, nan=0.25, posinf=1.0)
+    t3 = time.perf_counter()
+    report(0.9, "Colour")
+    confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source, preset_obj)
+    if camera_note:  # says more than the plain "generic camera profile" warning
+        warnings = [w for w in warnings if not w.startswith("generic camera profile")] + [camera_note]
+        confidence *= 1.0 if generic else 0.85
+    if cal is not None and cal.camera not in ("", AUTO, camera):
+        warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
+                        f"{camera}: its gains are relative to that profile — pick the same camera")
+        confidence *= 0.85
+    if image.processed and cal is None:
+        warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
+                        "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
+                        "is only approximate — shoot RAW, or take one calibration shot of a known lamp with the same "
+                        "camera settings (fixed white balance) and use it")
+        confidence *= PROCESSED_CONFIDENCE
+    elif image.processed and cal.pipeline is None:
+        warnings.append(f"this file was processed by the camera ({image.processed_reason}) but calibration "
+                        f"{cal.name!r} holds per-bin gains only, which cannot undo a colour matrix and tone curve: "
+                        "calibrate again from a photo taken the same way as this one (same file type and settings)")
+        confidence *= PROCESSED_CONFIDENCE
+    elif not image.processed and cal is not None and cal.pipeline is not None:
+        warnings.append(f"calibration {cal.name!r} was made from an in-camera JPEG/HEIC and undoes that camera "
+                        "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
+                        "same kind of file")
+        confidence *= PROCESSED_CONFIDENCE
+    if unusable and mdl is not None and method == "model":
+        warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
+        confidence *= 0.5
+    light = colour.spectral_colour(spd, working_space)
+    if light.out_of_gamut:
+        warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
+    fit = analysis.fit
+    height, width = image.rgb.shape[:2]
+    s = image.scale
+    disc = DiscFit(
+        center_px=image.to_original(*fit.center_px),
+        radius_px=preset_obj.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
+        hole_radius_px=preset_obj.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
+        px_per_mm=focal_px / fit.distance_mm * s,
+    )
+    t4 = time.perf_counter()
+    timing = {"load": 0.0, **analysis.timing_ms, "solve": (t3 - t2) * 1e3, "colour": (t4 - t3) * 1e3,
+              "total": (t4 - t0) * 1e3}
+    report(1.0, "Done")
+    return Estimate(
+        spd=spd, spd_std=std, xy=light.xy, cct_k=light.cct_k, duv=light.duv,
+        rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
+        disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
+        calibration=None if cal is None else cal.name,
+        model_version=(mdl.version if mdl else "") + ("" if method == "model" else f" ({method} only)"),
+        working_space=working_space,
+        extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
+               "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
+               "ring_center_px": list(image.to_original(*fit.ring_center_px))},
+        wavelength_nm=WAVELENGTHS_NM.copy(),
+    )
+
+
+def estimate_photo(
+    path: str | Path,
+    *,
+    preset: str | Preset = DEFAULT_PRESET,
+    camera: str = AUTO,
+    calibration: str | Calibration | None = None,
+    working_space: str = "Linear Rec.709",
+    model: SpectralModel | None | str = "shipped",
+    progress: Progress | None = None,
+    method: str = "model",
+) -> Estimate:
+    """The lamp's SPD from a CD photo (JPEG/PNG/TIFF/EXR). Raises CDSpectraError subclasses with
+    a message for the user on bad input; never returns NaN."""
+    report = progress or (lambda _f, _m: None)
+    report(0.0, "Reading the photo")
+    t0 = time.perf_counter()
+    preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
+    image = load_for_estimate(path, preset_obj)
+    load_ms = (time.perf_counter() - t0) * 1e3
+    result = estimate_image(image, preset=preset_obj, camera=camera, calibration=calibration,
+                            working_space=working_space, model=model, progress=progress, method=method)
+    result.timing_ms["load"] = load_ms
+    result.timing_ms["total"] += load_ms
+    return result

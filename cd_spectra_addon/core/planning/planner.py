@@ -1,0 +1,382 @@
+"""Capture planner: from what a person has (a lamp at some distance, its size, a phone or a
+camera and its lens), where to put lamp and camera so the first order shows 400–700 nm on the
+disc's data area — found by searching positions with the forward model's geometry
+(:mod:`.setups`), not by a rule of thumb.
+
+Two families are searched, both with lamp, camera and disc axis in one vertical plane:
+near-axis (phone only: the source — a card with a hole, an LED — within 15 mm of the lens, at
+the camera's distance) and oblique (the lamp at its distance and some angle from the disc axis,
+the camera on a tripod at another angle and distance, aimed at the disc centre). Every
+candidate that covers 400–700 nm is then checked for occlusion (camera body, lamp housing),
+the disc fitting the frame and the zero-order glint; the best one is the one that shows the
+whole range on one side of the disc, away from the glint, with the sharpest spectrum.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..scene.capture import DEFAULT_PRESET, Preset, load_preset, preset_from_dict
+from ..errors import CDSpectraError
+from .setups import VISIBLE_NM, SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
+
+__all__ = ["PlanError", "Equipment", "Plan", "PHONE", "CAMERA", "plan_capture", "setup_summary"]
+
+
+class PlanError(CDSpectraError):
+    """No buildable capture exists for this equipment (the message says what to change)."""
+
+
+@dataclass(frozen=True)
+class _Kind:
+    body_mm: tuple[float, float, float]  # width, height, depth behind the lens front
+    lens_offset_mm: tuple[float, float]  # lens from the body's front-face centre
+    f_number: float
+    min_focus_mm: float
+    aspect: float  # short side / long side of the sensor
+
+
+PHONE = _Kind((75.0, 160.0, 9.0), (-27.5, 70.0), 1.8, 80.0, 0.75)
+CAMERA = _Kind((140.0, 100.0, 150.0), (0.0, -10.0), 8.0, 250.0, 2.0 / 3.0)
+# A phone's lens sits ~10 mm from the body's edge (here its −x edge): a source beside it must be
+# past that edge, and within 15 mm of the lens to stay near-axis.
+_NEAR_AXIS_OFFSETS_MM = (-12.0, -13.0, -14.0, -15.0)
+_MAX_FWHM_NM = 40.0
+
+
+@dataclass(frozen=True)
+class Equipment:
+    """What the user has. Lengths in mm."""
+
+    lamp_distance_mm: float
+    lamp_size_mm: float
+    focal_mm: float
+    sensor_width_mm: float = 36.0
+    phone: bool = False
+    f_number: float | None = None
+    lamp_housing_mm: float = 80.0
+    min_focus_mm: float | None = None
+
+    @property
+    def kind(self) -> _Kind:
+        return PHONE if self.phone else CAMERA
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Where to put things, what it gives, and the preset that renders it."""
+
+    family: str  # "near-axis" or "oblique"
+    lamp_angle_deg: float  # from the disc axis; positive: on the far side from the camera
+    lamp_distance_mm: float
+    lamp_offset_mm: float  # near-axis: source beside the lens
+    camera_angle_deg: float
+    camera_distance_mm: float
+    setup: SetUp
+    report: SetUpReport
+    read_side: str  # "camera side", "lamp side", "both sides"
+    notes: tuple[str, ...] = field(default=())
+
+    def instructions(self) -> list[str]:
+        """Plain steps with distances and angles."""
+        cam = self.setup.preset.camera.nominal_position_mm
+        lamp = self.setup.preset.light.position_mm
+        if self.family == "near-axis":
+            return [
+                f"Lay the CD flat, label down. Hold the phone level {self.camera_distance_mm:.0f} mm above the disc "
+                "centre, lens straight over the centre hole.",
+                f"Make the light source small: a card with a {self.setup.source_size_mm:.0f} mm hole, taped flat "
+                f"to the phone's back so the hole is {abs(self.lamp_offset_mm):.0f} mm from the lens centre, just "
+                "past the phone's nearest edge, the lamp right behind the card (or a bare LED there).",
+                "Darken the room; expose so the streak is bright but not clipped.",
+            ]
+        side = "on the other side of the disc from the camera" if self.lamp_angle_deg > 0 else "on the camera's side"
+        return [
+            "Lay the CD flat, label down.",
+            f"Camera on a tripod {self.camera_distance_mm:.0f} mm from the disc centre, "
+            f"{self.camera_angle_deg:g}° from vertical (lens {cam[2]:.0f} mm above the disc plane, "
+            f"{abs(cam[0]):.0f} mm out from the centre), aimed at the centre.",
+            f"Lamp {self.lamp_distance_mm:.0f} mm from the disc centre, {abs(self.lamp_angle_deg):g}° from vertical, "
+            f"{side}, in the same vertical plane as the camera (lamp {lamp[2]:.0f} mm above the disc plane, "
+            f"{abs(lamp[0]):.0f} mm out).",
+            f"The rainbow is a thin streak through the centre; read it on the {self.read_side}.",
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "family": self.family,
+            "lamp_angle_deg": self.lamp_angle_deg,
+            "lamp_distance_mm": self.lamp_distance_mm,
+            "lamp_offset_mm": self.lamp_offset_mm,
+            "camera_angle_deg": self.camera_angle_deg,
+            "camera_distance_mm": self.camera_distance_mm,
+            "camera_position_mm": list(self.setup.preset.camera.nominal_position_mm),
+            "lamp_position_mm": list(self.setup.preset.light.position_mm),
+            "read_side": self.read_side,
+            "instructions": self.instructions(),
+            "report": self.report.to_dict(),
+            "notes": list(self.notes),
+        }
+
+
+def _check(equipment: Equipment) -> None:
+    def positive(name: str, value: Any, low: float = 0.0) -> None:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > low
+        if not ok:
+            raise PlanError(f"{name} must be a number > {low:g}, not {value!r}")
+
+    positive("lamp distance (mm)", equipment.lamp_distance_mm)
+    positive("lamp size (mm)", equipment.lamp_size_mm)
+    positive("focal length (mm)", equipment.focal_mm)
+    positive("sensor width (mm)", equipment.sensor_width_mm)
+    positive("lamp housing (mm)", equipment.lamp_housing_mm)
+    if equipment.f_number is not None:
+        positive("f-number", equipment.f_number, 0.5)
+    if equipment.min_focus_mm is not None:
+        positive("closest focus (mm)", equipment.min_focus_mm)
+    if equipment.lamp_distance_mm < 100.0:
+        raise PlanError(f"a lamp {equipment.lamp_distance_mm:g} mm from the disc is too close: its first order "
+                        "cannot reach the data area and the lamp would hang over the disc; put it ≥ 150 mm away")
+    if equipment.lamp_distance_mm > 100_000.0:
+        raise PlanError("a lamp more than 100 m away is not a lamp you can place; give its distance in mm")
+    if equipment.focal_mm / equipment.sensor_width_mm > 20.0:
+        raise PlanError(f"a {equipment.focal_mm:g} mm lens on a {equipment.sensor_width_mm:g} mm sensor sees too "
+                        "narrow a field: the disc would only fit the frame metres away, too far to separate "
+                        "the colours; use a wider lens")
+    fwhm = 2.3548 * 1600.0 * angular_sigma(equipment.lamp_size_mm, equipment.lamp_distance_mm)
+    if fwhm > _MAX_FWHM_NM:
+        need = 2.3548 * 1600.0 * equipment.lamp_size_mm / (4.0 * 12.0)  # distance for a 12 nm blur
+        raise PlanError(f"a {equipment.lamp_size_mm:g} mm lamp at {equipment.lamp_distance_mm:g} mm blurs the spectrum "
+                        f"by ≈ {fwhm:.0f} nm (FWHM): put a card with a 2 mm hole in front of it, or move it to "
+                        f"≥ {need / 1000.0:.1f} m")
+
+
+def _preset(equipment: Equipment, name: str, camera_mm: tuple[float, float, float],
+            lamp_mm: tuple[float, float, float], sigma: float) -> Preset:
+    base = load_preset(DEFAULT_PRESET).to_dict()
+    cam = {"focal_length_mm": float(equipment.focal_mm), "sensor_width_mm": float(equipment.sensor_width_mm),
+           "image_size_px": [512, 512], "position_mm": list(camera_mm)}
+    if abs(camera_mm[0]) < 1e-9 and abs(camera_mm[1]) < 1e-9:
+        cam = {k: v for k, v in cam.items() if k != "position_mm"} | {"distance_mm": float(camera_mm[2])}
+    lamp_dist = math.dist(lamp_mm, (0.0, 0.0, 0.0))
+    # Intensity keeps the irradiance at the disc centre that of cd-default's lamp at 210 mm.
+    intensity = (lamp_dist / 210.0) ** 2
+    return preset_from_dict({**base, "name": name, "description": "planned capture", "camera": cam,
+                             "light": {"position_mm": list(lamp_mm), "lobe_sigma": sigma, "intensity": intensity}})
+
+
+def _setup(equipment: Equipment, preset: Preset, family: str, housing: bool) -> SetUp:
+    kind = equipment.kind
+    f_number = equipment.f_number or kind.f_number
+    lamp = np.asarray(preset.light.position_mm)
+    bodies = []
+    if housing:
+        back = lamp / np.linalg.norm(lamp)  # the housing sits behind the emitting face, away from the disc
+        size = equipment.lamp_housing_mm
+        bodies.append({"name": "lamp housing", "center_mm": (lamp + back * size / 2.0).tolist(),
+                       "size_mm": [size, size, size], "facing": (-back).tolist(), "passes_source": True})
+    return setup_from_dict(preset, {
+        "kind": family, "camera_body_mm": list(kind.body_mm), "lens_offset_mm": list(kind.lens_offset_mm),
+        "aperture_mm": _aperture_mm(equipment),
+        "source_size_mm": equipment.lamp_size_mm, "bodies": bodies,
+    })
+
+
+def _aperture_mm(equipment: Equipment) -> float:
+    """Entrance pupil: focal length / f-number. A phone's focal length is usually quoted
+    35 mm-equivalent (sensor width 36): its real lens is ~4.7× shorter (a 7.6 mm-wide sensor)."""
+    f_number = equipment.f_number or equipment.kind.f_number
+    focal = equipment.focal_mm
+    if equipment.phone and abs(equipment.sensor_width_mm - 36.0) < 1e-9:
+        focal *= 7.6 / 36.0
+    return focal / f_number
+
+
+def _fit_distance(equipment: Equipment, rim_mm: float = 60.0) -> float:
+    """Closest camera distance at which the whole disc fits the sensor's short side (10 % margin)."""
+    short = equipment.sensor_width_mm * equipment.kind.aspect
+    return 2.0 * rim_mm * 1.1 * equipment.focal_mm / short
+
+
+def _line_lambda(camera: np.ndarray, lamp: np.ndarray, s: np.ndarray, pitch_nm: float) -> np.ndarray:
+    """λ₁ along the x axis for many candidates at once: camera, lamp (N, 3) mm, s (S,) mm."""
+    p = np.stack([s, np.zeros_like(s), np.zeros_like(s)], axis=1)[None]  # (1, S, 3)
+    wi = lamp[:, None, :] - p
+    wo = camera[:, None, :] - p
+    u = wi[..., 0] / np.linalg.norm(wi, axis=-1) + wo[..., 0] / np.linalg.norm(wo, axis=-1)
+    return np.abs(u) * pitch_nm
+
+
+def _quick_metrics(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min: float,
+                   r_max: float) -> dict[str, np.ndarray]:
+    """Per candidate, from λ₁ on the data area of both halves of the line (occlusion ignored:
+    the full analysis checks that): does it cover 400–700 nm (on one side / with both), by how
+    much margin, and does the zero-order glint fall on the data area."""
+    half = np.linspace(r_min, r_max, 72)
+    plus = _line_lambda(camera, lamp, half, pitch_nm)
+    minus = _line_lambda(camera, lamp, -half, pitch_nm)
+    lo, hi = VISIBLE_NM
+    a_lo, a_hi, b_lo, b_hi = plus.min(1), plus.max(1), minus.min(1), minus.max(1)
+    one_a = (a_lo <= lo) & (a_hi >= hi)
+    one_b = (b_lo <= lo) & (b_hi >= hi)
+    # two sides: each is continuous, so their union covers if they overlap and span the range
+    union = (np.minimum(a_lo, b_lo) <= lo) & (np.maximum(a_hi, b_hi) >= hi) & (np.maximum(a_lo, b_lo) <= np.minimum(a_hi, b_hi))
+    margin = np.maximum(np.where(one_a, np.minimum(lo - a_lo, a_hi - hi), 0.0),
+                        np.where(one_b, np.minimum(lo - b_lo, b_hi - hi), 0.0))
+    glint = (a_lo < 20.0) | (b_lo < 20.0)  # |u| ≈ 0 somewhere on the data area
+    return {"covers": one_a | one_b | union, "single": one_a | one_b, "margin": margin, "glint": glint}
+
+
+def _read_side(report: SetUpReport, camera_x: float) -> tuple[str, bool]:
+    """Which half of the streak line to read, in words, and whether one half holds 400–700 nm."""
+    if report.read_side == 0:
+        return "both sides", False
+    direction = report.line_direction[0] * report.read_side
+    if abs(camera_x) < 1e-9:
+        return ("side towards the source" if report.read_side > 0 else "side away from the source"), True
+    return ("camera side" if direction * camera_x > 0 else "far side from the camera"), True
+
+
+def _margin(report: SetUpReport) -> float:
+    lo, hi = VISIBLE_NM
+    best = 0.0
+    for cov in report.sides:
+        best = max(best, min(lo - cov.lambda_range_nm[0], cov.lambda_range_nm[1] - hi))
+    return best
+
+
+def _candidates(equipment: Equipment) -> list[tuple[str, float, float, float, float]]:
+    """(family, lamp angle, lamp offset, camera angle, camera distance) to try."""
+    kind = equipment.kind
+    near = max(_fit_distance(equipment), equipment.min_focus_mm or kind.min_focus_mm)
+    out: list[tuple[str, float, float, float, float]] = []
+    if equipment.phone and equipment.lamp_distance_mm >= near:
+        out += [("near-axis", 0.0, off, 0.0, equipment.lamp_distance_mm) for off in _NEAR_AXIS_OFFSETS_MM]
+    far = max(near * 3.0, near + 100.0)
+    distances = np.geomspace(near, far, 14)
+    for beta in np.arange(0.0, 62.5, 2.5):
+        for dc in distances:
+            for alpha in np.arange(-75.0, 77.5, 2.5):
+                out.append(("oblique", float(alpha), 0.0, float(beta), float(dc)))
+    return out
+
+
+def _positions(cand: tuple[str, float, float, float, float], lamp_distance: float) -> tuple[np.ndarray, np.ndarray]:
+    family, alpha, offset, beta, dc = cand
+    if family == "near-axis":  # the on-axis camera's image x is world x
+        return np.array([0.0, 0.0, dc]), np.array([offset, 0.0, dc])
+    b, a = math.radians(beta), math.radians(alpha)
+    camera = np.array([-dc * math.sin(b), 0.0, dc * math.cos(b)])
+    lamp = np.array([lamp_distance * math.sin(a), 0.0, lamp_distance * math.cos(a)])
+    return camera, lamp
+
+
+def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int = 60,
+                 families: tuple[str, ...] = ("near-axis", "oblique")) -> Plan:
+    """The best buildable capture for this equipment, or PlanError saying what to change.
+
+    Candidates are ranked by cheap geometry first (one side covers 400–700 nm, glint off the
+    data area, margin, estimated blur); the best ``max_analysed`` get the full analysis
+    (occlusion, frame), and the best of those that pass is the plan."""
+    _check(equipment)
+    disc = load_preset(DEFAULT_PRESET).disc
+    cands = [c for c in _candidates(equipment) if c[0] in families]
+    if not cands:
+        raise PlanError("the near-axis set-up needs a phone (a small lens the source can sit within 15 mm of) "
+                        "and the lamp at least as far from the disc as the phone must be for the disc to fit")
+    cams, lamps = zip(*(_positions(c, equipment.lamp_distance_mm) for c in cands))
+    cam_arr, lamp_arr = np.array(cams), np.array(lamps)
+    quick = _quick_metrics(cam_arr, lamp_arr, disc.pitch_um * 1e3, disc.grating_r_min_mm, disc.grating_r_max_mm)
+    ok = quick["covers"] & (lamp_arr[:, 2] > 0)
+    sigma_src = angular_sigma(equipment.lamp_size_mm, equipment.lamp_distance_mm)
+    sigma_ap = angular_sigma(_aperture_mm(equipment), 1.0) / np.linalg.norm(cam_arr, axis=1)
+    fwhm = 2.3548 * disc.pitch_um * 1e3 * np.hypot(sigma_src, sigma_ap)
+    order = sorted(np.flatnonzero(ok), key=lambda i: (bool(quick["glint"][i]), not bool(quick["single"][i]),
+                                                      bool(quick["margin"][i] < 15.0), round(fwhm[i] * 2.0) / 2.0,
+                                                      -min(float(quick["margin"][i]), 60.0), cands[i][4]))
+    best: tuple[tuple[Any, ...], Plan] | None = None
+    reasons: dict[str, int] = {}
+    for i in order[:max_analysed]:
+        cand = cands[i]
+        camera, lamp = cam_arr[i], lamp_arr[i]
+        sigma = math.hypot(sigma_src, angular_sigma(_aperture_mm(equipment), float(np.linalg.norm(camera))))
+        preset = _preset(equipment, name, tuple(camera.tolist()), tuple(lamp.tolist()), sigma)
+        setup = _setup(equipment, preset, cand[0], housing=cand[0] == "oblique")
+        report = analyse(setup)
+        if not report.covers_visible or report.occlusions:
+            reasons["blocked"] = reasons.get("blocked", 0) + 1
+            continue
+        if not report.disc_in_frame:
+            reasons["frame"] = reasons.get("frame", 0) + 1
+            continue
+        side, single = _read_side(report, float(camera[0]))
+        glint = any(disc.grating_r_min_mm <= abs(g) <= disc.grating_r_max_mm for g in report.glint_mm)
+        worst = max(report.resolution_nm.values()) if report.resolution_nm else float("inf")
+        margin = _margin(report)
+        key = (glint, not single, margin < 15.0, round(worst * 2.0) / 2.0, -min(margin, 60.0), cand[4])
+        if best is None or key < best[0]:
+            plan = Plan(family=cand[0], lamp_angle_deg=cand[1], lamp_distance_mm=float(np.linalg.norm(lamp)),
+                        lamp_offset_mm=cand[2], camera_angle_deg=cand[3], camera_distance_mm=cand[4],
+                        setup=setup, report=report, read_side=side, notes=report.occlusions + report.notes)
+            best = (key, plan)
+    if best is None:
+        raise PlanError(_no_plan_message(equipment, int(ok.sum()), reasons))
+    return best[1]
+
+
+def _lamp_distances_that_work(equipment: Equipment) -> list[float]:
+    """Lamp distances for which some camera position covers 400–700 nm (geometry only)."""
+    disc = load_preset(DEFAULT_PRESET).disc
+    works = []
+    for dist in (150.0, 210.0, 300.0, 500.0, 1000.0, 2000.0, 5000.0):
+        trial = Equipment(**{**equipment.__dict__, "lamp_distance_mm": dist})
+        cands = _candidates(trial)
+        cams, lamps = zip(*(_positions(c, dist) for c in cands))
+        if np.any(_quick_metrics(np.array(cams), np.array(lamps), disc.pitch_um * 1e3,
+                                 disc.grating_r_min_mm, disc.grating_r_max_mm)["covers"]):
+            works.append(dist)
+    return works
+
+
+def _no_plan_message(equipment: Equipment, geometric: int, reasons: dict[str, int]) -> str:
+    what = "phone" if equipment.phone else f"{equipment.focal_mm:g} mm lens"
+    reach = max(_fit_distance(equipment), equipment.min_focus_mm or equipment.kind.min_focus_mm)
+    if geometric == 0:
+        works = _lamp_distances_that_work(equipment)
+        hint = (f"with this {what} a lamp at {', '.join(f'{d:g}' for d in works)} mm works"
+                if works else "no lamp distance works with it: use a wider lens or one that focuses closer")
+        return (f"with the lamp {equipment.lamp_distance_mm:g} mm away no position of the {what} "
+                f"({reach:.0f} mm from the disc or further, where the disc fits the frame and the lens focuses) "
+                f"puts 400–700 nm on the disc's data area; {hint}")
+    parts = []
+    if reasons.get("blocked"):
+        parts.append("the camera body or the lamp housing is in the way (or they collide)")
+    if reasons.get("frame"):
+        parts.append("the disc does not fit the frame")
+    return (f"every position that puts 400–700 nm on the data area fails: {' or '.join(parts)}; "
+            "try a smaller lamp housing, a wider lens or a more distant lamp")
+
+
+def setup_summary(report: SetUpReport) -> list[str]:
+    """A few short lines for the panel and the CLI: coverage, resolution, problems."""
+    lines = []
+    if report.covered_nm:
+        lo, hi = report.covered_nm
+        lines.append(f"First order on the data area: {lo:.0f}–{hi:.0f} nm"
+                     + (" (400–700 covered)" if report.covers_visible else " (400–700 NOT covered)"))
+    else:
+        lines.append("No first order on the unobstructed data area")
+    for cov in report.sides:
+        lines.append(f"  side {'+' if cov.side > 0 else '−'}: {cov.lambda_range_nm[0]:.0f}–{cov.lambda_range_nm[1]:.0f} nm"
+                     + (f", {cov.blocked_fraction:.0%} blocked" if cov.blocked_fraction else ""))
+    if report.resolution_nm:
+        worst = max(report.resolution_nm.values())
+        lines.append(f"Spectral blur ≤ {worst:.1f} nm FWHM (source σ {report.sigma_source:.4f}, "
+                     f"lens σ {report.sigma_aperture:.4f} rad)")
+    lines.extend(report.occlusions)
+    lines.extend(report.notes)
+    return lines

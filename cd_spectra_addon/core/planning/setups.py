@@ -1,0 +1,561 @@
+"""Can a capture set-up be built and read? Where the first order lands, what is in the way,
+and how sharp the spectrum is — from the forward model's geometry, before anyone takes a photo.
+
+The set-ups a person builds put the lamp, the camera and the disc axis in one plane (lamp
+beside the lens, or lamp and tripod on a line through the disc). On the line where that plane
+meets the disc the tangential part v of ωi + ωo is zero, so the first-order streak lies on it,
+and the grating equation d(sin θm − sin θi) = mλ fixes where each wavelength is:
+with ê the line's direction, sin θi = −ωi·ê and sin θm = ωo·ê (angles from the normal, positive
+towards ê), so a point at signed position s shows λ = d|(ωi + ωo)·ê| (m = ±1).
+
+The spectrum is blurred by the angular size of the source (σi) and of the lens's entrance
+pupil seen from the disc (σo): δλ = d·√((cos θi σi)² + (cos θo σo)²) (Gaussian std). A uniform
+disc of diameter a at distance D has an angular std of a / (4D) along any direction.
+
+The preset file's optional ``"setup"`` section says what the forward model cannot know: the
+size of the camera body and where its lens is, the lens aperture, the source size, the
+objects near the light path (lamp housing, a card with a hole) and the steps to build it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
+from ..errors import CDSpectraError
+
+__all__ = [
+    "VISIBLE_NM",
+    "Box",
+    "Emitter",
+    "SetUp",
+    "SideCoverage",
+    "SetUpReport",
+    "camera_body_box",
+    "angular_sigma",
+    "incidence_line",
+    "first_order_positions",
+    "analyse",
+    "setup_from_dict",
+    "load_setup",
+    "setup_names",
+]
+
+VISIBLE_NM = (400.0, 700.0)  # what the set-up must put on the data area
+_SAMPLES_PER_MM = 20  # line sampling; wavelengths are interpolated to ≪ 0.1 mm
+_EPS_MM = 1e-6
+
+
+def _frame(facing: NDArray[np.float64], up: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation whose columns are (right, up, facing) for an object facing ``facing``."""
+    w = facing / np.linalg.norm(facing)
+    r = np.cross(up, w)
+    if np.linalg.norm(r) < 1e-9:  # facing along up: any perpendicular will do
+        r = np.cross((1.0, 0.0, 0.0), w) if abs(w[0]) < 0.9 else np.cross((0.0, 1.0, 0.0), w)
+    r = r / np.linalg.norm(r)
+    return np.stack([r, np.cross(w, r), w], axis=1)
+
+
+@dataclass(frozen=True)
+class Box:
+    """An opaque box near the capture (camera body, lamp housing, a card), world mm.
+
+    ``axes`` columns are the box's own x, y, z in the world; ``size_mm`` its extent along them.
+    ``passes_source``: the source shines out of it (the lamp's own housing, the card whose hole
+    is the source), so it cannot shadow the source's own light.
+    """
+
+    name: str
+    center_mm: tuple[float, float, float]
+    size_mm: tuple[float, float, float]
+    axes: tuple[tuple[float, float, float], ...] = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    passes_source: bool = False
+
+    def hits(self, start: NDArray[np.float64], end: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Which segments start→end (arrays (..., 3), mm) pass through the box's inside (slab
+        test; touching at the segment's ends does not count)."""
+        rot = np.asarray(self.axes, dtype=np.float64).T  # columns = box axes
+        a = (np.asarray(start, dtype=np.float64) - self.center_mm) @ rot
+        b = (np.asarray(end, dtype=np.float64) - self.center_mm) @ rot
+        d = b - a
+        half = np.asarray(self.size_mm, dtype=np.float64) / 2.0
+        t0 = np.full(a.shape[:-1], 0.0)
+        t1 = np.full(a.shape[:-1], 1.0)
+        for k in range(3):
+            dk, ak = d[..., k], a[..., k]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lo = (-half[k] - ak) / dk
+                hi = (half[k] - ak) / dk
+            parallel = np.abs(dk) < 1e-12
+            inside = np.abs(ak) < half[k]
+            lo_, hi_ = np.minimum(lo, hi), np.maximum(lo, hi)
+            t0 = np.where(parallel, np.where(inside, t0, 2.0), np.maximum(t0, lo_))
+            t1 = np.where(parallel, np.where(inside, t1, -1.0), np.minimum(t1, hi_))
+        length = np.linalg.norm(d, axis=-1)
+        margin = _EPS_MM / np.maximum(length, _EPS_MM)
+        return (t1 - t0) > margin
+
+    def overlaps(self, other: "Box", tolerance_mm: float = 0.01) -> bool:
+        """Do the two boxes share volume (deeper than ``tolerance_mm``)? Separating-axis test
+        over the 15 candidate axes of two oriented boxes."""
+        a_axes = np.asarray(self.axes, dtype=np.float64)  # rows
+        b_axes = np.asarray(other.axes, dtype=np.float64)
+        a_half = np.asarray(self.size_mm, dtype=np.float64) / 2.0
+        b_half = np.asarray(other.size_mm, dtype=np.float64) / 2.0
+        t = np.asarray(other.center_mm, dtype=np.float64) - np.asarray(self.center_mm, dtype=np.float64)
+        axes = [*a_axes, *b_axes]
+        axes += [np.cross(a, b) for a in a_axes for b in b_axes]
+        for axis in axes:
+            norm = np.linalg.norm(axis)
+            if norm < 1e-9:
+                continue
+            axis = axis / norm
+            ra = float(np.sum(a_half * np.abs(a_axes @ axis)))
+            rb = float(np.sum(b_half * np.abs(b_axes @ axis)))
+            if abs(float(t @ axis)) >= ra + rb - tolerance_mm:
+                return False
+        return True
+
+    @staticmethod
+    def facing(name: str, center_mm: Any, size_mm: Any, facing: Any, up: Any = (0.0, 0.0, 1.0),
+               passes_source: bool = False) -> "Box":
+        """A box whose z axis points along ``facing`` (e.g. a card facing the disc)."""
+        rot = _frame(np.asarray(facing, dtype=np.float64), np.asarray(up, dtype=np.float64))
+        return Box(name, tuple(float(v) for v in center_mm), tuple(float(v) for v in size_mm),
+                   tuple(tuple(float(v) for v in rot[:, k]) for k in range(3)), passes_source)
+
+
+@dataclass(frozen=True)
+class Emitter:
+    """The glowing part of a lamp behind a hole: a disc of ``diameter_mm`` facing ``facing``.
+    Light reaches a disc point through the hole only if the line back through the hole lands
+    on it."""
+
+    center_mm: tuple[float, float, float]
+    diameter_mm: float
+    facing: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class SetUp:
+    """A buildable capture: the preset (poses) plus what the forward model does not know."""
+
+    preset: Preset
+    kind: str  # "near-axis" or "oblique"
+    camera_body_mm: tuple[float, float, float]  # width, height, depth behind the lens front
+    lens_offset_mm: tuple[float, float]  # lens centre from the body's front-face centre (image x, y)
+    aperture_mm: float  # entrance pupil diameter (focal length / f-number)
+    source_size_mm: float  # diameter of the effective source (filament, LED die, hole)
+    bodies: tuple[Box, ...] = ()
+    emitter: Emitter | None = None
+    steps: tuple[str, ...] = ()
+
+
+def camera_body_box(setup: SetUp) -> Box:
+    """The camera (lens and body as one box) around the preset's camera pose."""
+    scene = Scene(setup.preset)
+    rot = scene.camera_rotation
+    w, h, depth = setup.camera_body_mm
+    ox, oy = setup.lens_offset_mm
+    center = scene.camera_position * 1e3 + rot @ np.array([-ox, -oy, depth / 2.0])
+    return Box("camera body", tuple(center.tolist()), (w, h, depth),
+               tuple(tuple(rot[:, k].tolist()) for k in range(3)))
+
+
+def angular_sigma(size_mm: float, distance_mm: float) -> float:
+    """Gaussian-equivalent angular std (rad) of a uniform disc of ``size_mm`` at ``distance_mm``."""
+    return size_mm / (4.0 * distance_mm)
+
+
+def incidence_line(scene: Scene) -> NDArray[np.float64]:
+    """Unit direction ê (world, in the disc plane) of the line where the plane through lamp,
+    camera and disc axis meets the disc. Raises CDSpectraError if they are not in one plane."""
+    n = scene.disc_normal
+    c = scene.disc_center
+    lamp = scene.light_position - c
+    cam = scene.camera_position - c
+    lamp_t = lamp - (lamp @ n) * n
+    cam_t = cam - (cam @ n) * n
+    ref = lamp_t if np.linalg.norm(lamp_t) >= np.linalg.norm(cam_t) else cam_t
+    if np.linalg.norm(ref) < 1e-9:
+        return _frame(n, np.array([0.0, 1.0, 0.0]))[:, 1]  # both on the axis: any line; use +y
+    e = ref / np.linalg.norm(ref)
+    other = cam_t if ref is lamp_t else lamp_t
+    off_plane = abs(float(other @ np.cross(n, e)))
+    if off_plane > 1e-6 * max(1.0, float(np.linalg.norm(other))):
+        raise CDSpectraError("the set-up analysis needs the lamp and the camera in one plane with the "
+                             "disc axis (lamp beside the lens, or lamp and tripod on a line through the disc)")
+    return e
+
+
+def first_order_positions(scene: Scene, wavelengths_nm: Any) -> list[list[float]]:
+    """For each wavelength, the signed positions s (mm along ê from the centre) on the disc
+    where the first order shows it (λ = d·|(ωi + ωo)·ê|, v = 0), from the hole to the rim."""
+    s, lam = _line_lambda(scene)
+    out: list[list[float]] = []
+    for target in np.atleast_1d(np.asarray(wavelengths_nm, dtype=np.float64)):
+        found = []
+        for side in (1.0, -1.0):
+            m = np.sign(s) == side
+            ss, ll = s[m], lam[m] - target
+            k = np.flatnonzero(np.sign(ll[:-1]) * np.sign(ll[1:]) <= 0)
+            for i in k:
+                if ll[i] == ll[i + 1]:
+                    continue
+                found.append(float(ss[i] - ll[i] * (ss[i + 1] - ss[i]) / (ll[i + 1] - ll[i])))
+        out.append(sorted(set(round(v, 9) for v in found)))
+    return out
+
+
+def _line_lambda(scene: Scene, s: NDArray[np.float64] | None = None
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Signed positions along the line (default: hole to rim on both halves) and λ₁ there."""
+    disc = scene.preset.disc
+    if s is None:
+        n = int((disc.rim_radius_mm - disc.hole_radius_mm) * _SAMPLES_PER_MM) + 1
+        half = np.linspace(disc.hole_radius_mm, disc.rim_radius_mm, n)
+        s = np.concatenate([-half[::-1], half])
+    points = _line_points(scene, s)
+    e = incidence_line(scene)
+    wi, wo = _unit(scene.light_position * 1e3 - points), _unit(scene.camera_position * 1e3 - points)
+    lam = np.abs((wi + wo) @ e) * disc.pitch_um * 1e3
+    return s, lam
+
+
+def _line_points(scene: Scene, s: NDArray[np.float64]) -> NDArray[np.float64]:
+    return scene.disc_center * 1e3 + np.asarray(s, dtype=np.float64)[:, None] * incidence_line(scene)[None, :]
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class SideCoverage:
+    """One half of the line (side +1 along ê, −1 opposite) over the data area."""
+
+    side: int
+    lambda_range_nm: tuple[float, float]  # first-order λ shown between the data area's radii
+    blocked_fraction: float  # of the data-area points on this side whose light or view is blocked
+
+
+@dataclass(frozen=True)
+class SetUpReport:
+    """What a set-up delivers, for the README, the planner and the panel."""
+
+    name: str
+    line_direction: tuple[float, float, float]
+    positions_mm: dict[float, list[float]]  # λ → signed positions on the line (whole disc)
+    sides: tuple[SideCoverage, SideCoverage]
+    covered_nm: tuple[float, float] | None  # the part of 400–700 on the unblocked data area
+    covers_visible: bool
+    glint_mm: list[float]  # zero-order (mirror) points on the disc
+    sigma_source: float
+    sigma_aperture: float
+    resolution_nm: dict[float, float]  # FWHM of the spectral blur at λ
+    nm_per_px: dict[float, float]  # sampling along the streak in the preset's image
+    occlusions: tuple[str, ...]  # plain-language findings, empty when nothing is in the way
+    disc_in_frame: bool
+    notes: tuple[str, ...] = field(default=())
+    read_side: int = 0  # +1 / −1: this half of the line alone shows 400–700 nm unblocked; 0: split
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "line_direction": list(self.line_direction),
+            "positions_mm": {f"{k:g}": v for k, v in self.positions_mm.items()},
+            "sides": [{"side": c.side, "lambda_range_nm": list(c.lambda_range_nm),
+                       "blocked_fraction": c.blocked_fraction} for c in self.sides],
+            "covered_nm": list(self.covered_nm) if self.covered_nm else None,
+            "covers_400_700": self.covers_visible,
+            "glint_mm": self.glint_mm,
+            "sigma_source_rad": self.sigma_source,
+            "sigma_aperture_rad": self.sigma_aperture,
+            "resolution_fwhm_nm": {f"{k:g}": v for k, v in self.resolution_nm.items()},
+            "nm_per_px": {f"{k:g}": v for k, v in self.nm_per_px.items()},
+            "occlusions": list(self.occlusions),
+            "disc_in_frame": self.disc_in_frame,
+            "notes": list(self.notes),
+            "read_side": self.read_side,
+        }
+
+
+REPORT_NM = (400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0)
+
+
+def _on_data(s: NDArray[np.float64], disc: Any, side: int = 0) -> NDArray[np.bool_]:
+    """Line samples on the data area (on one half if ``side`` is ±1)."""
+    mask = (np.abs(s) >= disc.grating_r_min_mm) & (np.abs(s) <= disc.grating_r_max_mm)
+    return mask & (np.sign(s) == side) if side else mask
+
+
+def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpReport:
+    """Coverage, occlusion, glint and resolution of a set-up (nominal pose)."""
+    preset = setup.preset
+    scene = Scene(preset)
+    disc = preset.disc
+    e = incidence_line(scene)
+    s, lam = _line_lambda(scene)
+    points = _line_points(scene, s)
+    lamp = scene.light_position * 1e3
+    cam = scene.camera_position * 1e3
+    boxes = (camera_body_box(setup), *setup.bodies)
+    light_blocked = np.zeros(s.size, dtype=bool)
+    view_blocked = np.zeros(s.size, dtype=bool)
+    findings: list[str] = []
+    on_data = _on_data(s, disc)
+    none = np.zeros(s.size, dtype=bool)
+    for box in boxes:
+        lb = none if box.passes_source else box.hits(np.broadcast_to(lamp, points.shape), points)
+        vb = none if box.name == "camera body" else box.hits(np.broadcast_to(cam, points.shape), points)
+        if np.any(lb & on_data):
+            findings.append(f"the {box.name} shadows the lamp's light on {np.mean(lb[on_data]):.0%} "
+                            "of the streak line")
+        if np.any(vb & on_data):
+            findings.append(f"the {box.name} hides {np.mean(vb[on_data]):.0%} of the streak line from the camera")
+        light_blocked |= lb
+        view_blocked |= vb
+    if setup.emitter is not None:
+        unlit = ~_emitter_reaches(setup.emitter, lamp, points)
+        # Between the glowing lamp and the hole only the source's own parts may be.
+        behind = _emitter_hits(setup.emitter, lamp, points)
+        for box in boxes:
+            if box.passes_source:
+                continue
+            shadow = box.hits(behind, np.broadcast_to(lamp, points.shape))
+            if np.any(shadow & on_data):
+                findings.append(f"the {box.name} stands between the lamp and the hole for "
+                                f"{np.mean(shadow[on_data]):.0%} of the streak line (move the hole past its edge)")
+            unlit |= shadow
+        if np.any(unlit & on_data):
+            findings.append(f"the lamp behind the hole does not fill it for {np.mean(unlit[on_data]):.0%} of "
+                            "the streak line (move the lamp closer to the card or use a bigger lamp)")
+        light_blocked |= unlit
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1:]:
+            if a.overlaps(b):
+                findings.append(f"the {a.name} and the {b.name} would have to be in the same place")
+    blocked = light_blocked | view_blocked
+    # Lamp and camera must both be above the disc for the point to be lit and seen.
+    n = scene.disc_normal
+    blocked |= ((lamp - points) @ n <= 0) | ((cam - points) @ n <= 0)
+
+    sides = []
+    visible_parts = []
+    for side in (1, -1):
+        data = _on_data(s, disc, side)
+        lam_side = lam[data]
+        sides.append(SideCoverage(side, (float(lam_side.min()), float(lam_side.max())),
+                                  float(np.mean(blocked[data]))))
+        usable = lam[data & ~blocked]
+        if usable.size:
+            visible_parts.append(usable)
+    covered, covers = _coverage(visible_parts, lam, s, data_blocked=blocked, disc=disc)
+    lo_nm, hi_nm = VISIBLE_NM
+    read_side = next((c.side for c in sides if c.lambda_range_nm[0] <= lo_nm and c.lambda_range_nm[1] >= hi_nm
+                      and c.blocked_fraction == 0.0), 0)
+
+    report = tuple(float(x) for x in report_nm)
+    positions = dict(zip(report, first_order_positions(scene, report)))
+    glint = _glint(scene, e)
+    sig_src = angular_sigma(setup.source_size_mm, float(np.linalg.norm(lamp - scene.disc_center * 1e3)))
+    sig_ap = angular_sigma(setup.aperture_mm, float(np.linalg.norm(cam - scene.disc_center * 1e3)))
+    resolution, per_px = {}, {}
+    for lam_nm, where in positions.items():
+        on = [x for x in where if disc.grating_r_min_mm <= abs(x) <= disc.grating_r_max_mm]
+        on.sort(key=lambda x: x * read_side < 0)  # the half that shows the whole range first
+        if not on:
+            continue
+        x = on[0]
+        p = _line_points(scene, np.array([x]))[0]
+        wi, wo = _unit(lamp - p), _unit(cam - p)
+        ci, co = float(wi @ n), float(wo @ n)
+        # cos θ in the plane of diffraction (the radial plane): √(1 − (ω·ê)²) for ω in that plane
+        ci_r, co_r = math.sqrt(max(1e-12, 1 - (wi @ e) ** 2)), math.sqrt(max(1e-12, 1 - (wo @ e) ** 2))
+        std = disc.pitch_um * 1e3 * math.hypot(ci_r * sig_src, co_r * sig_ap)
+        resolution[lam_nm] = float(2.3548 * std) if ci > 0 and co > 0 else float("inf")
+        per_px[lam_nm] = _nm_per_px(scene, x)
+    rim = _rim_points(scene)
+    rc = scene.project(rim * 1e-3)
+    width, height = preset.camera.image_size_px
+    in_frame = bool(np.all((rc >= 0) & (rc <= np.array([height - 1, width - 1]))))
+    notes = []
+    for g in glint:
+        if disc.grating_r_min_mm <= abs(g) <= disc.grating_r_max_mm:
+            notes.append(f"the mirror glint (zero order) falls on the data area at r = {abs(g):.0f} mm: "
+                         "expose so it does not spread, or move the lamp")
+    if not in_frame:
+        notes.append("the disc's rim leaves the frame: step back or use a wider lens")
+    return SetUpReport(
+        name=preset.name, line_direction=tuple(float(v) for v in e), positions_mm=positions,
+        sides=(sides[0], sides[1]), covered_nm=covered, covers_visible=covers, glint_mm=glint,
+        sigma_source=sig_src, sigma_aperture=sig_ap, resolution_nm=resolution, nm_per_px=per_px,
+        occlusions=tuple(findings), disc_in_frame=in_frame, notes=tuple(notes), read_side=read_side,
+    )
+
+
+def _coverage(parts: list[NDArray[np.float64]], lam: NDArray[np.float64], s: NDArray[np.float64],
+              data_blocked: NDArray[np.bool_], disc: Any) -> tuple[tuple[float, float] | None, bool]:
+    """The contiguous stretch of 400–700 nm (1 nm steps) shown somewhere on the unblocked data
+    area, allowing the two sides of the disc to share it."""
+    grid = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)
+    seen = np.zeros(grid.size, dtype=bool)
+    for side in (1, -1):
+        data = _on_data(s, disc, side)
+        idx = np.flatnonzero(data)
+        for a, b in zip(idx[:-1], idx[1:]):
+            if b != a + 1 or data_blocked[a] or data_blocked[b]:
+                continue
+            lo, hi = sorted((lam[a], lam[b]))
+            seen |= (grid >= lo - 0.5) & (grid <= hi + 0.5)
+    if not np.any(seen):
+        return None, False
+    # longest run of seen wavelengths
+    best, start, run = (0, 0), None, 0
+    for i, ok in enumerate(np.append(seen, False)):
+        if ok and start is None:
+            start = i
+        if not ok and start is not None:
+            if i - start > best[1] - best[0]:
+                best = (start, i)
+            start = None
+    lo, hi = float(grid[best[0]]), float(grid[best[1] - 1])
+    return (lo, hi), bool(np.all(seen))
+
+
+def _glint(scene: Scene, e: NDArray[np.float64]) -> list[float]:
+    """Signed positions on the line where ωi + ωo is along the normal (u = 0): the mirror glint."""
+    disc = scene.preset.disc
+    s = np.linspace(-disc.rim_radius_mm, disc.rim_radius_mm, int(2 * disc.rim_radius_mm * _SAMPLES_PER_MM) + 1)
+    points = _line_points(scene, s)
+    u = (_unit(scene.light_position * 1e3 - points) + _unit(scene.camera_position * 1e3 - points)) @ e
+    k = np.flatnonzero(np.sign(u[:-1]) * np.sign(u[1:]) <= 0)
+    out = []
+    for i in k:
+        if u[i] == u[i + 1]:
+            continue
+        x = float(s[i] - u[i] * (s[i + 1] - s[i]) / (u[i + 1] - u[i]))
+        if abs(x) >= disc.hole_radius_mm:
+            out.append(round(x, 3))
+    return out
+
+
+def _nm_per_px(scene: Scene, s_mm: float) -> float:
+    """How many nm one image pixel spans along the streak at signed position ``s_mm``."""
+    h = 0.05
+    pts = _line_points(scene, np.array([s_mm - h, s_mm + h]))
+    rc = scene.project(pts * 1e-3)
+    px = float(np.linalg.norm(rc[1] - rc[0]))
+    _, lam = _line_lambda(scene, np.array([s_mm - h, s_mm + h]))
+    return float(abs(lam[1] - lam[0]) / max(px, 1e-12))
+
+
+def _rim_points(scene: Scene) -> NDArray[np.float64]:
+    a = np.linspace(0, 2 * math.pi, 73)
+    r = scene.preset.disc.rim_radius_mm
+    local = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(a)], axis=1)
+    return local @ scene.disc_rotation.T + scene.disc_center * 1e3
+
+
+def _emitter_hits(emitter: Emitter, hole: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Where the line from each disc point back through the hole meets the emitter's plane."""
+    c = np.asarray(emitter.center_mm, dtype=np.float64)
+    f = _unit(np.asarray(emitter.facing, dtype=np.float64))
+    d = hole[None, :] - points
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((c - points) @ f) / (d @ f)
+    return points + np.nan_to_num(t, nan=1.0, posinf=1.0, neginf=1.0)[:, None] * d
+
+
+def _emitter_reaches(emitter: Emitter, hole: NDArray[np.float64], points: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Does the line from each disc point back through the hole land on the glowing disc?"""
+    c = np.asarray(emitter.center_mm, dtype=np.float64)
+    f = _unit(np.asarray(emitter.facing, dtype=np.float64))
+    d = hole[None, :] - points
+    denom = d @ f
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = ((c - points) @ f) / denom
+    hit = points + t[:, None] * d
+    return (np.abs(denom) > 1e-12) & (t > 1.0) & (np.linalg.norm(hit - c, axis=1) <= emitter.diameter_mm / 2.0)
+
+
+def _triple(value: Any, where: str) -> tuple[float, float, float]:
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
+        raise ValueError(f"setup.{where} needs 3 finite numbers, not {value!r}")
+    return (float(value[0]), float(value[1]), float(value[2]))
+
+
+def _positive(value: Any, where: str) -> float:
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
+        raise ValueError(f"setup.{where} must be a number > 0, not {value!r}")
+    return float(value)
+
+
+def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
+    """A :class:`SetUp` from a preset and its file's ``"setup"`` section (ValueError if bad)."""
+    if not isinstance(data, dict):
+        raise ValueError("setup must be an object")
+    kind = data.get("kind")
+    if kind not in ("near-axis", "oblique"):
+        raise ValueError(f"setup.kind must be 'near-axis' or 'oblique', not {kind!r}")
+    body = _triple(data.get("camera_body_mm"), "camera_body_mm")
+    for i, v in enumerate(body):
+        _positive(v, f"camera_body_mm[{i}]")
+    offset = data.get("lens_offset_mm", [0.0, 0.0])
+    if not isinstance(offset, (list, tuple)) or len(offset) != 2:
+        raise ValueError("setup.lens_offset_mm needs 2 numbers")
+    bodies = []
+    for i, b in enumerate(data.get("bodies", [])):
+        size = _triple(b.get("size_mm"), f"bodies[{i}].size_mm")
+        bodies.append(Box.facing(str(b.get("name", f"object {i}")), _triple(b.get("center_mm"), f"bodies[{i}].center_mm"),
+                                 size, _triple(b.get("facing", [0, 0, -1]), f"bodies[{i}].facing"),
+                                 _triple(b.get("up", [0, 1, 0]), f"bodies[{i}].up"), bool(b.get("passes_source", False))))
+    emitter = None
+    if data.get("emitter") is not None:
+        em = data["emitter"]
+        emitter = Emitter(_triple(em.get("center_mm"), "emitter.center_mm"),
+                          _positive(em.get("diameter_mm"), "emitter.diameter_mm"),
+                          _triple(em.get("facing", [0, 0, -1]), "emitter.facing"))
+    return SetUp(
+        preset=preset, kind=kind, camera_body_mm=body,
+        lens_offset_mm=(float(offset[0]), float(offset[1])),
+        aperture_mm=_positive(data.get("aperture_mm"), "aperture_mm"),
+        source_size_mm=_positive(data.get("source_size_mm"), "source_size_mm"),
+        bodies=tuple(bodies), emitter=emitter, steps=tuple(str(x) for x in data.get("steps", [])),
+    )
+
+
+def setup_names() -> list[str]:
+    """Presets that describe a buildable set-up (their file has a ``"setup"`` section)."""
+    names = []
+    for path in sorted(PRESET_DIR.glob("*.json")):
+        try:
+            if "setup" in json.loads(path.read_text(encoding="utf-8")):
+                names.append(path.stem)
+        except ValueError:
+            continue
+    return names
+
+
+def load_setup(name_or_path: str | Path) -> SetUp:
+    """The set-up of a preset by name or path; CDSpectraError if it has none or it is invalid."""
+    preset = load_preset(name_or_path)
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = PRESET_DIR / f"{name_or_path}.json"
+    data = json.loads(path.read_text(encoding="utf-8"))
+    if "setup" not in data:
+        raise CDSpectraError(f"preset {preset.name!r} describes no buildable set-up (no 'setup' section); "
+                             f"set-ups: {', '.join(setup_names())}")
+    try:
+        return setup_from_dict(preset, data["setup"])
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise CDSpectraError(f"preset file {path} has an invalid setup section: {exc}") from exc

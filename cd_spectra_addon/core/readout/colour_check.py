@@ -1,0 +1,58 @@
+"""Does the fitted wavelength axis agree with the camera's own colours? (a green pixel cannot be 620 nm)
+
+Each λ₁ bin of the readout holds the lamp's light within a band a few nm wide, so its colour is
+the camera's colour at that λ — whatever the lamp. Where the camera's colour changes quickly with
+λ (blue-green to orange), a bin whose colour sits off the camera's colour at its label says by
+how many nm the label is off: the colour difference projected on the camera's colour curve's
+tangent, divided by its length. The lamp's own spectrum tilts single bins either way; a pose a
+few degrees off shifts them all the same way. So the weighted median over the bins estimates the
+wavelength axis's error, and the estimate's confidence falls with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .readout import Readout
+from ..spectra.grid import WAVELENGTHS_NM
+
+CHECK_BAND_NM = (450.0, 640.0)  # where a camera's colour names λ to a few nm
+MIN_BINS = 8
+
+__all__ = ["CHECK_BAND_NM", "wavelength_shift_nm"]
+
+
+def _camera_colour(lam: NDArray[np.float64], sensitivities: NDArray[np.float64], blur_nm: float) -> NDArray[np.float64]:
+    s = max(float(blur_nm), 1.0)
+    kernel = np.exp(-0.5 * ((lam[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
+    rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
+    return rgb / np.maximum(np.linalg.norm(rgb, axis=1, keepdims=True), 1e-300)
+
+
+def wavelength_shift_nm(readout: Readout, sensitivities: NDArray[np.float64], blur_nm: float) -> float | None:
+    """How many nm the readout's wavelength labels sit above what the camera's colours say
+    (weighted median over the valid bins in CHECK_BAND_NM; positive: labels too long); None with
+    too few bins to tell."""
+    lam = readout.lambda_nm
+    use = readout.valid & (lam >= CHECK_BAND_NM[0]) & (lam <= CHECK_BAND_NM[1])
+    values = readout.values[use]
+    norm = np.linalg.norm(values, axis=1)
+    use_idx = np.flatnonzero(use)[norm > 0]
+    if use_idx.size < MIN_BINS:
+        return None
+    values = readout.values[use_idx]
+    norm = np.linalg.norm(values, axis=1)
+    unit = values / norm[:, None]
+    centre = _camera_colour(lam[use_idx], sensitivities, blur_nm)
+    tangent = (_camera_colour(lam[use_idx] + 0.5, sensitivities, blur_nm)
+               - _camera_colour(lam[use_idx] - 0.5, sensitivities, blur_nm))  # per nm
+    slope2 = np.sum(tangent * tangent, axis=1)
+    shift = np.sum((unit - centre) * tangent, axis=1) / np.maximum(slope2, 1e-300)  # colour's λ − label
+    weight = norm * slope2
+    order = np.argsort(shift)
+    cum = np.cumsum(weight[order])
+    if not cum[-1] > 0:
+        return None
+    median = float(shift[order][np.searchsorted(cum, 0.5 * cum[-1])])
+    return -median if np.isfinite(median) else None

@@ -1,0 +1,91 @@
+"""Forward matrix of the readout: what each 5 nm band of the lamp adds to each λ₁ bin.
+
+The readout operator is linear for fixed pixel weights, so applying it to the model's basis
+images (the BRDF at the photo's fitted geometry) gives, per bin, R[bin, λ]: the response to a
+unit lamp band. Multiplying by the camera's sensitivities gives the feature forward matrix.
+Evaluating the BRDF at every pixel would cost seconds at photo resolution; one footprint per
+0.5 nm of λ₁ reproduces it to a fraction of a percent (see bin_response).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..scene import grating
+from ..spectra.cameras import CameraProfile
+from ..scene.capture import Scene
+from ..scene.diffraction import pixel_diffraction
+from .readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES, Readout
+from ..spectra.grid import WAVELENGTHS_NM
+
+SUB_BINS = 10  # λ₁ sub-bins per feature bin: the response shifts with λ₁ inside a bin
+FOOTPRINT = 3  # sub-samples per pixel axis: a pixel integrates several nm of λ₁
+
+__all__ = ["bin_response", "feature_matrix"]
+
+
+def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
+    """R[bin, λ] (NB × 81): readout value per unit lamp power in band λ (camera excluded).
+
+    Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by smooth
+    geometric factors. So the bin is split into λ₁ sub-bins; each sub-bin's weight
+    (Σ w·amplitude²) comes from all its pixels, its response from its heaviest pixel, averaged
+    over that pixel's footprint like the photo's pixel is.
+    """
+    px = readout.pixels
+    w = readout.pixel_weight * px.amplitude ** 2
+    n_bands = WAVELENGTHS_NM.size
+    response = np.zeros((N_FEATURES, n_bands))
+    live = np.flatnonzero(w > 0)
+    if live.size == 0:
+        return response
+    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
+    sub = np.floor((px.lambda1_nm[live] - lam0) / (FEATURE_STEP_NM / SUB_BINS)).astype(np.int64)
+    n_sub = N_FEATURES * SUB_BINS
+    sub = np.clip(sub, 0, n_sub - 1)
+    sub_weight = np.bincount(sub, weights=w[live], minlength=n_sub)
+    order = np.lexsort((-w[live], sub))  # heaviest pixel first within each sub-bin
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = sub[order][1:] != sub[order][:-1]
+    rep = live[order[first]]
+    rep_sub = sub[order[first]]
+
+    width = scene.preset.camera.image_size_px[0]
+    offsets = (np.arange(FOOTPRINT) + 0.5) / FOOTPRINT - 0.5
+    dr, dc = (a.ravel() for a in np.meshgrid(offsets, offsets, indexing="ij"))
+    rep_index = np.repeat(px.index[rep], dr.size)
+    rows = (rep_index // width) + np.tile(dr, rep.size)
+    cols = (rep_index % width) + np.tile(dc, rep.size)
+    owner = np.repeat(np.arange(rep.size), dr.size)
+    samples = pixel_diffraction(scene, rep_index, rows, cols)
+    # pixel_diffraction drops samples that miss the disc; recover their owners by position.
+    hit = _hit_mask(scene, rows, cols)
+    owner = owner[hit]
+    frame = grating.surface_frame(
+        samples.points, scene.camera_position, scene.light_position, scene.disc_center,
+        scene.disc_normal, scene.preset.disc.medium_index, scene.preset.light.intensity,
+        view_directions=samples.view)
+    optics = grating.GratingOptics(scene.preset.disc, scene.preset.light.lobe_sigma)
+    radiance = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).dense()
+    footprint = np.zeros((rep.size, n_bands))
+    np.add.at(footprint, owner, radiance)
+    footprint /= dr.size  # missing samples count as black, as in the photo
+    per_unit = footprint / px.amplitude[rep, None]
+    sub_response = np.zeros((n_sub, n_bands))
+    sub_response[rep_sub] = per_unit * sub_weight[rep_sub, None]
+    response = sub_response.reshape(N_FEATURES, SUB_BINS, n_bands).sum(axis=1)
+    totals = sub_weight.reshape(N_FEATURES, SUB_BINS).sum(axis=1)
+    response /= np.where(totals > 0, totals, 1.0)[:, None]
+    response[~readout.valid] = 0.0
+    return response
+
+
+def _hit_mask(scene: Scene, rows: NDArray[np.float64], cols: NDArray[np.float64]) -> NDArray[np.bool_]:
+    _, hit = scene.intersect_disc(scene.pixel_rays(rows, cols))
+    return hit
+
+
+def feature_matrix(response: NDArray[np.float64], camera: CameraProfile) -> NDArray[np.float64]:
+    """(NB, 3, 81): feature of channel c in bin b per unit lamp power in band λ."""
+    return response[:, None, :] * camera.sensitivities.T[None, :, :]

@@ -1,0 +1,184 @@
+"""The spectral readout of a photo: camera RGB binned by the first-order diffraction coordinate.
+
+Each disc pixel sees, to first order, the lamp at wavelength λ₁ = d·|u| scaled by how visible
+the lobe is there (exp(−v²/2σ²)) and by the slowly varying geometry (irradiance × G/w²): its
+amplitude a. Binning pixels by λ₁ turns any capture geometry into the same three-channel
+"spectrometer read-out": per bin and channel the least-squares A of I = A·a over the bin's
+pixels, after rejecting outliers (dust, scratches, glare) against the bin's median. Saturated pixels are left out and counted, never averaged in.
+The operator is linear in the image for fixed weights, so the forward matrix of the features
+(:mod:`.forward`) applies the same weights to the model's basis images.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..scene.capture import Scene
+from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+
+FEATURE_STEP_NM = 5.0
+FEATURE_LAMBDA_NM: NDArray[np.float64] = np.arange(350.0, 870.0 + 0.5, FEATURE_STEP_NM)  # 105 bins
+N_FEATURES = FEATURE_LAMBDA_NM.size
+MIN_VISIBILITY = 0.3
+OUTLIER_MADS = 5.0
+MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
+
+__all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Readout", "extract_readout"]
+
+
+@dataclass(frozen=True)
+class Readout:
+    lambda_nm: NDArray[np.float64]  # (NB,) bin centres of λ₁
+    values: NDArray[np.float64]  # (NB, 3) amplitude per bin and channel (0 where invalid)
+    weight: NDArray[np.float64]  # (NB,) Σ w·amplitude² of the pixels used
+    saturated_fraction: NDArray[np.float64]  # (NB,) share of the bin's weight that was clipped
+    valid: NDArray[np.bool_]  # (NB,)
+    noise: NDArray[np.float64]  # (NB, 3) standard error of each value (robust, from residuals)
+    pixels: PixelDiffraction  # the pixels used (after masks)
+    pixel_bin: NDArray[np.int64]  # bin of each used pixel
+    pixel_weight: NDArray[np.float64]  # final weight w of each used pixel (0 = rejected)
+
+
+def _bin_median(bins: NDArray[np.int64], values: NDArray[np.float64], n_bins: int) -> NDArray[np.float64]:
+    """Median of ``values`` per bin (NaN for empty bins), by one sort.
+
+    Sorts a combined key (bin, then value) and reads the values back from the sorted keys:
+    a plain sort instead of an argsort + gather (or a lexsort), ~3× faster on a 24 MP photo's
+    pixels. The read-back costs ~1e-13 of the value range, far below any photo's precision."""
+    lo, hi = float(np.min(values)) if values.size else 0.0, float(np.max(values)) if values.size else 1.0
+    span = hi - lo if hi > lo else 1.0
+    key = bins.astype(np.float64) * 4.0 + (values - lo) / span  # values map into [0, 1] ⊂ [0, 4)
+    key.sort()
+    counts = np.bincount(bins, minlength=n_bins)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    out = np.full(n_bins, np.nan)
+    has = counts > 0
+    first = starts[has] + (counts[has] - 1) // 2
+    last = starts[has] + counts[has] // 2
+    base = 4.0 * np.flatnonzero(has)
+    out[has] = lo + span * (0.5 * ((key[first] - base) + (key[last] - base)))
+    return out
+
+
+def _norm_ppf(p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Inverse standard normal CDF (Acklam's rational approximation, |error| < 1.2e-9)."""
+    a = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02, 1.383577518672690e02,
+         -3.066479806614716e01, 2.506628277459239e00)
+    b = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02, 6.680131188771972e01,
+         -1.328068155288572e01)
+    c = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00, -2.549732539343734e00,
+         4.374664141464968e00, 2.938163982698783e00)
+    d = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
+    p = np.clip(np.asarray(p, dtype=np.float64), 1e-12, 1 - 1e-12)
+    out = np.empty_like(p)
+    low, high = p < 0.02425, p > 1 - 0.02425
+    mid = ~(low | high)
+    q = np.sqrt(-2 * np.log(np.where(low, p, 0.5)))
+    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
+    den = (((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1
+    out[low] = (num / den)[low]
+    q = np.sqrt(-2 * np.log(np.where(high, 1 - p, 0.5)))
+    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
+    out[high] = -(num / den)[high]
+    q = p - 0.5
+    r = q * q
+    num = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q
+    den = ((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1
+    out[mid] = (num / den)[mid]
+    return out
+
+
+def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[np.int64],
+            weight: NDArray[np.float64], vis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Undo the bias of noise clipped at zero (integer encodings) in dark bins.
+
+    Where a bin's pixels are often exactly 0, the mean of max(0, x) overstates the true mean μ
+    (by up to 0.4σ): a dark floor that a solver reads as a fake infrared tail. For a clipped
+    normal, the zero fraction p0 gives μ/σ = −Φ⁻¹(p0) and the mean then gives σ, hence μ.
+    """
+    zero = (flat <= 1e-7) & (weight > 0)[:, None]
+    n = np.bincount(b, weights=weight, minlength=N_FEATURES)
+    out = values.copy()
+    for c in range(3):
+        p0 = np.bincount(b, weights=zero[:, c].astype(float), minlength=N_FEATURES) / np.maximum(n, 1)
+        mean = np.bincount(b, weights=weight * flat[:, c], minlength=N_FEATURES) / np.maximum(n, 1)
+        fix = (p0 > 0.005) & (p0 < 0.995) & (n >= 8) & (mean > 0)
+        if not np.any(fix):
+            continue
+        z = -_norm_ppf(p0[fix])
+        phi = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
+        big_phi = 1.0 - p0[fix]
+        sigma = mean[fix] / (z * big_phi + phi)
+        mu = z * sigma
+        ratio = np.where(mean[fix] > 0, np.maximum(mu, 0.0) / mean[fix], 1.0)
+        out[fix, c] = values[fix, c] * ratio
+    return out
+
+
+def extract_readout(
+    rgb: NDArray[np.floating],
+    saturated: NDArray[np.bool_] | None,
+    scene: Scene,
+    pixels: PixelDiffraction | None = None,
+    min_visibility: float = MIN_VISIBILITY,
+) -> Readout:
+    """Readout of a linear photo whose geometry is ``scene`` (same image size)."""
+    height, width, _ = rgb.shape
+    if tuple(scene.preset.camera.image_size_px) != (width, height):
+        raise ValueError("scene image size does not match the photo")
+    if pixels is None:
+        pixels = pixel_diffraction(scene)
+    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
+    b = np.floor((pixels.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
+    keep = pixels.on_tracks & (pixels.visibility >= min_visibility) & (b >= 0) & (b < N_FEATURES)
+    sel = np.flatnonzero(keep)
+    px = PixelDiffraction(**{k: v[sel] for k, v in pixels.__dict__.items()})
+    b = b[sel]
+    vis = px.amplitude
+    flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)[px.index]
+    sat = np.zeros(px.index.size, bool) if saturated is None else np.asarray(saturated).reshape(-1)[px.index]
+    vis2 = vis * vis
+    total_w = np.bincount(b, weights=vis2, minlength=N_FEATURES)
+    sat_w = np.bincount(b, weights=vis2 * sat, minlength=N_FEATURES)
+
+    # Robust rejection on the luminance-like sum of the amplitude-corrected values.
+    ratio = flat.sum(axis=1) / vis
+    usable = ~sat & np.all(np.isfinite(flat), axis=1)
+    med = _bin_median(b[usable], ratio[usable], N_FEATURES)
+    dev = np.abs(ratio - med[b])
+    mad = _bin_median(b[usable], dev[usable], N_FEATURES)
+    scale = np.maximum(1.4826 * mad, 1e-3 * np.abs(med) + 1e-12)
+    weight = np.where(usable & (dev <= OUTLIER_MADS * scale[b]), 1.0, 0.0)
+    weight = np.where(np.isnan(med[b]), 0.0, weight)
+
+    wv2 = np.bincount(b, weights=weight * vis2, minlength=N_FEATURES)
+    values = np.zeros((N_FEATURES, 3))
+    for c in range(3):
+        values[:, c] = np.bincount(b, weights=weight * vis * flat[:, c], minlength=N_FEATURES)
+    safe = np.where(wv2 > 0, wv2, 1.0)
+    values /= safe[:, None]
+    values = _unclip(values, flat, b, weight, vis)
+    # Standard error from the weighted residual scatter of I − A·a.
+    resid = flat - values[b] * vis[:, None]
+    var = np.zeros((N_FEATURES, 3))
+    for c in range(3):
+        var[:, c] = np.bincount(b, weights=weight * resid[:, c] ** 2, minlength=N_FEATURES)
+    n_used = np.bincount(b, weights=weight, minlength=N_FEATURES)
+    noise = np.sqrt(var / np.maximum(n_used - 1, 1)[:, None]) / np.sqrt(safe)[:, None]
+    sat_frac = np.divide(sat_w, total_w, out=np.zeros(N_FEATURES), where=total_w > 0)
+    valid = (wv2 >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
+    values[~valid] = 0.0
+    return Readout(
+        lambda_nm=FEATURE_LAMBDA_NM.copy(),
+        values=values,
+        weight=wv2,
+        saturated_fraction=sat_frac,
+        valid=valid,
+        noise=noise,
+        pixels=px,
+        pixel_bin=b,
+        pixel_weight=weight,
+    )

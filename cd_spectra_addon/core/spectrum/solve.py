@@ -1,0 +1,184 @@
+"""Physics-only inverse: regularised non-negative least squares against the forward matrix.
+
+Rows are the valid (bin, channel) features weighted by their noise plus a model-error floor;
+the prior is smoothness (second differences), which a lamp's narrow lines violate — the
+learned correction (:mod:`.model`) is there for those. The result is in the photo's own
+units (exposure included); callers peak-normalise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..numerics.nnls import nnls_normal
+from ..spectra.grid import WAVELENGTHS_NM
+from ..readout.readout import Readout
+
+SMOOTHNESS = 3e-2  # relative to the data term's mean curvature (bench/solver_tuning.md, synthetic spectra)
+MODEL_ERROR_FLOOR = 0.01  # features are trusted to 1 % of their peak at best
+PRIOR_STRENGTH = 0.3  # weight of the Gaussian prior (1 = fully Bayesian); bench/solver_tuning.md
+PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
+SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
+
+__all__ = ["SMOOTHNESS", "GaussianPrior", "fused_solve", "photo_scale", "band_blend", "second_difference", "system",
+           "physics_solve", "prior_solve"]
+
+
+@dataclass(frozen=True)
+class GaussianPrior:
+    """Mean and covariance of peak-normalised SPDs from the synthetic prior (never from lamps)."""
+
+    mean: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+
+    @classmethod
+    def from_samples(cls, spds: NDArray[np.float64]) -> "GaussianPrior":
+        return cls(np.mean(spds, axis=0), np.cov(np.asarray(spds, dtype=np.float64).T))
+
+    def precision(self, jitter: float = PRIOR_JITTER) -> NDArray[np.float64]:
+        n = self.mean.size
+        return np.linalg.inv(self.covariance + jitter * np.eye(n))
+
+
+def second_difference(n: int) -> NDArray[np.float64]:
+    d = np.zeros((n - 2, n))
+    idx = np.arange(n - 2)
+    d[idx, idx], d[idx, idx + 1], d[idx, idx + 2] = 1.0, -2.0, 1.0
+    return d
+
+
+def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
+           background: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+    """Weighted rows (A, y) of the valid features and the data scale (peak feature).
+
+    With ``background`` the last six columns are ± a constant per channel: ambient light and the
+    dark floor an integer photo gets from noise clipped at zero are flat in λ₁, unlike any
+    lamp seen through a camera, so they separate cleanly instead of becoming a fake IR tail.
+    """
+    values = readout.values if gain is None else readout.values / np.where(gain > 0, gain, 1.0)
+    valid = readout.valid
+    y = values[valid].reshape(-1)
+    a = matrix[valid].reshape(-1, matrix.shape[-1])
+    if background:
+        channel = np.tile(np.eye(3), (int(valid.sum()), 1))
+        a = np.concatenate([a, channel, -channel], axis=1)
+    scale = float(np.max(np.abs(y))) if y.size else 0.0
+    if scale <= 0:
+        return a, y, 0.0
+    noise = readout.noise[valid].reshape(-1)
+    sigma = np.sqrt(noise ** 2 + (MODEL_ERROR_FLOOR * scale) ** 2)
+    return a / sigma[:, None], y / sigma, scale
+
+
+def physics_solve(readout: Readout, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
+                  gain: NDArray[np.float64] | None = None, background: bool = True) -> NDArray[np.float64]:
+    """Non-negative SPD (81,) minimising ‖A E − y‖² + λ‖D₂E‖² (λ scaled to the data), with
+    free per-channel background terms (see :func:`system`)."""
+    n = matrix.shape[-1]
+    a, y, scale = system(readout, matrix, gain, background)
+    if scale <= 0 or a.shape[0] == 0:
+        return np.zeros(n)
+    gram = a.T @ a
+    d2 = second_difference(n)
+    reg = np.zeros_like(gram)
+    reg[:n, :n] = d2.T @ d2
+    lam = smoothness * np.trace(gram[:n, :n]) / np.trace(reg[:n, :n])
+    ridge = 1e-9 * np.trace(gram[:n, :n]) / n
+    x = nnls_normal(gram + lam * reg + ridge * np.eye(gram.shape[0]), a.T @ y)
+    return x[:n]
+
+
+def prior_solve(readout: Readout, matrix: NDArray[np.float64], prior: GaussianPrior,
+                strength: float = PRIOR_STRENGTH, gain: NDArray[np.float64] | None = None,
+                precision: NDArray[np.float64] | None = None, smoothness: float = SMOOTHNESS
+                ) -> NDArray[np.float64]:
+    """Non-negative MAP estimate under the Gaussian prior (a Wiener-style solve).
+
+    The photo's scale is unknown, so the smoothness solve first sets it from the band every
+    camera sees well; the prior then fills what the camera cannot see (its blind tails) with
+    what lamps usually do there, instead of extrapolating a curve into the dark.
+    """
+    n = matrix.shape[-1]
+    first = physics_solve(readout, matrix, smoothness, gain=gain)
+    band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
+    s = float(first[band].max()) or float(first.max())
+    if s <= 0:
+        return first
+    a, y, _ = system(readout, matrix, gain)
+    prec = prior.precision() if precision is None else precision
+    gram = a.T @ a
+    rhs = a.T @ y
+    gram[:n, :n] += strength * prec / (s * s)
+    rhs[:n] += strength * (prec @ prior.mean) / s
+    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
+    return nnls_normal(gram, rhs)[:n]
+
+
+def _scale_to(a: NDArray[np.float64], y: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+    """Least-squares factor that makes ``spd`` reproduce the weighted features ``y``."""
+    pred = a @ spd
+    return float(pred @ y) / max(float(pred @ pred), 1e-300)
+
+
+def photo_scale(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64],
+                gain: NDArray[np.float64] | None = None) -> float:
+    """The factor that puts a peak-normalised SPD into the photo's units (what the features say
+    its brightness is); 0 where the photo cannot tell."""
+    a, y, scale = system(readout, matrix, gain, background=False)
+    if scale <= 0 or a.shape[0] == 0:
+        return 0.0
+    s = _scale_to(a, y, np.clip(np.asarray(spd, dtype=np.float64), 0.0, None))
+    return s if s > 0 else 0.0
+
+
+def band_blend(readout: Readout, matrix: NDArray[np.float64], learned: NDArray[np.float64],
+               physics: NDArray[np.float64], weight: NDArray[np.float64], gain: NDArray[np.float64] | None = None
+               ) -> NDArray[np.float64]:
+    """w(λ)·learned + (1 − w(λ))·physics, non-negative and peak-normalised.
+
+    Each estimate is first put at the brightness that best reproduces the photo's features, so
+    their levels agree wherever both are right and a band taken from one joins the other without
+    a jump (peak-normalising each would not: a line's peak in one and a smooth bump in the other
+    set different scales). The weight comes with the model: 1 where the learned stage beat
+    physics + prior on synthetic photos, 0 where it did not, with smooth transitions."""
+    w = np.clip(np.asarray(weight, dtype=np.float64), 0.0, 1.0)
+    parts = []
+    for spd in (learned, physics):
+        spd = np.nan_to_num(np.clip(np.asarray(spd, dtype=np.float64), 0.0, None), nan=0.0, posinf=0.0)
+        peak = float(spd.max())
+        parts.append(spd / peak if peak > 0 else spd)
+    scales = [photo_scale(readout, matrix, p, gain) for p in parts]
+    if all(sc > 0 for sc in scales):
+        parts = [p * sc for p, sc in zip(parts, scales)]
+    out = w * parts[0] + (1.0 - w) * parts[1]
+    peak = float(out.max())
+    return out / peak if peak > 0 else out
+
+
+def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
+                strength: float, floor: float, gain: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior.
+
+    The network knows what lamps look like where the camera is nearly blind; the photo knows
+    the colour exactly where it sees. Weighting the network's guess by its own uncertainty (not
+    below ``floor``, peak-normalised units) and solving against the features keeps the estimate
+    consistent with the photo — the physics decides where the data is strong.
+    """
+    n = matrix.shape[-1]
+    mean = np.clip(np.asarray(mean, dtype=np.float64), 0.0, None)
+    a, y, scale = system(readout, matrix, gain)
+    if scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
+        return mean
+    s = _scale_to(a[:, :n], y, mean)
+    if not s > 0:
+        return mean
+    sig = np.maximum(np.asarray(std, dtype=np.float64), floor) * s
+    gram = a.T @ a
+    rhs = a.T @ y
+    gram[:n, :n] += strength * np.diag(1.0 / sig ** 2)
+    rhs[:n] += strength * (mean * s) / sig ** 2
+    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
+    return nnls_normal(gram, rhs)[:n]
