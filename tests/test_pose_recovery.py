@@ -12,7 +12,7 @@ from cd_spectra_addon.core.pose import general_pose
 
 from cd_spectra_addon.core.pose import profile_residuals
 
-from cd_spectra_addon.core.scene import relative_pose
+from cd_spectra_addon.core.scene import kernel, relative_pose
 
 from cd_spectra_addon.core.planning import setups
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
@@ -82,11 +82,11 @@ def test_the_glint_is_where_the_disc_mirrors_the_lamp():
     scene = Scene(load_preset("cd-default").with_image_size(128), Pose(tilt_deg=(3.0, 0.0)))
     f = scene.preset.camera.focal_px
     rel = relative_pose.relative_pose(scene)
-    rc = relative_pose.project(relative_pose.mirror_point(rel), (128, 128), f)
+    rc = kernel.project(relative_pose.mirror_point(rel), (128, 128), f)
     px = pixel_diffraction(scene, None, np.array([rc[0]]), np.array([rc[1]]))
     assert abs(px.u[0]) < 1e-9 and abs(px.v[0]) < 1e-9
     moved = relative_pose.with_glint_at(rel, (rc[0] + 6.0, rc[1] - 4.0), (128, 128), f)
-    got = relative_pose.project(relative_pose.mirror_point(moved), (128, 128), f)
+    got = kernel.project(relative_pose.mirror_point(moved), (128, 128), f)
     assert np.hypot(got[0] - rc[0] - 6.0, got[1] - rc[1] + 4.0) < 0.01
 
 
@@ -112,7 +112,7 @@ def test_an_oblique_pose_is_recovered_from_the_photo(oblique_photo):
     rows, cols = streak // SIZE, streak % SIZE
     along = np.polyfit(cols, rows, 1)[0]  # the streak runs mostly along the image rows
     direction = np.array([along, 1.0]) / np.hypot(along, 1.0)
-    error = np.subtract(fit.center_px, relative_pose.project(truth.disc_centre_mm, size, f))
+    error = np.subtract(fit.center_px, kernel.project(truth.disc_centre_mm, size, f))
     across = abs(error[0] * direction[1] - error[1] * direction[0])
     mm_per_px = truth.distance_mm / f
     assert across < 2.0 and np.hypot(*error) * mm_per_px < 4.0
@@ -231,7 +231,7 @@ def test_the_fit_evaluates_the_same_diffraction_as_the_inverse():
         scene = Scene(load_preset(name).with_image_size(96), ERRORS)
         rel = relative_pose.relative_pose(scene)
         px = pixel_diffraction(scene)
-        rays = relative_pose.pixel_rays(px.index, (96, 96), scene.preset.camera.focal_px)
+        rays = kernel.index_rays(px.index, (96, 96), scene.preset.camera.focal_px)
         fast = relative_pose.ray_diffraction(rays, rel, scene.preset.disc.pitch_um)
         assert np.all(fast.hit)
         assert np.max(np.abs(fast.lambda1_nm - px.lambda1_nm)) < 1e-6

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
 from ..errors import CDSpectraError
+from ..scene.kernel import diffraction_at
 
 __all__ = [
     "VISIBLE_NM",
@@ -223,10 +224,9 @@ def _line_lambda(scene: Scene, s: NDArray[np.float64] | None = None
         half = np.linspace(disc.hole_radius_mm, disc.rim_radius_mm, n)
         s = np.concatenate([-half[::-1], half])
     points = _line_points(scene, s)
-    e = incidence_line(scene)
-    wi, wo = _unit(scene.light_position * 1e3 - points), _unit(scene.camera_position * 1e3 - points)
-    lam = np.abs((wi + wo) @ e) * disc.pitch_um * 1e3
-    return s, lam
+    geo = diffraction_at(points, _unit(scene.camera_position * 1e3 - points), scene.disc_center * 1e3,
+                         scene.disc_normal, scene.light_position * 1e3)
+    return s, geo.lambda1_nm(disc.pitch_um)
 
 
 def _line_points(scene: Scene, s: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -434,8 +434,11 @@ def _glint(scene: Scene, e: NDArray[np.float64]) -> list[float]:
     """Signed positions on the line where ωi + ωo is along the normal (u = 0): the mirror glint."""
     disc = scene.preset.disc
     s = np.linspace(-disc.rim_radius_mm, disc.rim_radius_mm, int(2 * disc.rim_radius_mm * _SAMPLES_PER_MM) + 1)
+    s = s[s != 0.0]  # the radial direction, hence u's sign, is undefined at the centre itself
     points = _line_points(scene, s)
-    u = (_unit(scene.light_position * 1e3 - points) + _unit(scene.camera_position * 1e3 - points)) @ e
+    geo = diffraction_at(points, _unit(scene.camera_position * 1e3 - points), scene.disc_center * 1e3,
+                         scene.disc_normal, scene.light_position * 1e3)
+    u = geo.u * np.sign(s)  # (ωi + ωo)·ê: r̂ = ±ê on the line
     k = np.flatnonzero(np.sign(u[:-1]) * np.sign(u[1:]) <= 0)
     out = []
     for i in k:

@@ -41,9 +41,10 @@ from ..numerics.least_squares import levenberg_marquardt
 from .pose_fit import (FIT_STEP_NM, PoseFit, axis_of_arcs, informative_pixels, glint_mask, box_downsample,
                        colour_blur_nm, consistency, expected_colours, fit_pose)
 from .profile_residuals import ProfileGrid, profile_residuals
+from ..scene.kernel import index_rays, project, turn_between
 from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis, nominal_scene,
-                            pixel_rays, project, ray_diffraction, relative_pose, scene_from_relative, with_glint_at,
-                            turn_between, turned_in_plane, with_lamp_distance)
+                            ray_diffraction, relative_pose, scene_from_relative, with_glint_at,
+                            turned_in_plane, with_lamp_distance)
 from .rim_ellipse import Ellipse, circle_poses, disc_base, disc_ellipse
 from .streak_colours import streak_fit
 
@@ -118,7 +119,7 @@ class _Residuals:
         self.preset, self.rel0, self.grid = preset, rel0, grid
         self.norm = 1.0 / math.sqrt(max(total, 1e-300))
         self.values = flat[subset]
-        self.rays = pixel_rays(subset, size, focal_px)
+        self.rays = index_rays(subset, size, focal_px)
         # the tracks' edges soft over one pixel's footprint, as the photo's pixels average them
         # (a hard edge makes the residuals jump as the pose moves a pixel across it)
         self.edge_mm = max(rel0.distance_mm / focal_px, 1e-3)
@@ -468,9 +469,9 @@ def fit_general_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         expected_colours(sensitivities, FIT_STEP_NM, colour_blur_nm(preset, rel.lobe_sigma, focal_px))
     value = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=fine, colour=colour)
     null = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=fine, colour=colour, scramble=True)
-    centre = project(rel.disc_centre_mm, size, focal_px)
+    centre = tuple(float(v) for v in project(rel.disc_centre_mm, size, focal_px))
     glint = mirror_point(rel)
-    ring = project(glint, size, focal_px) if glint is not None else centre
+    ring = tuple(float(v) for v in project(glint, size, focal_px)) if glint is not None else centre
     return PoseFit(center_px=centre, ring_center_px=ring, lobe_sigma=float(rel.lobe_sigma), focal_px=float(focal_px),
                    distance_mm=rel.distance_mm, residual=value, symmetry_center_px=centre, evaluations=evals,
                    null_residual=null, known_scene=scene)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CDSpectraError
+from .kernel import camera_rays, intersect_plane, project, rotation_xy
 
 PRESET_DIR = Path(__file__).resolve().parents[2] / "presets"
 DEFAULT_PRESET = "cd-default"  # the capture a photo is read as unless the user picks another preset
@@ -33,7 +34,6 @@ __all__ = [
     "Preset",
     "Pose",
     "Scene",
-    "rotation_xy",
     "PRESET_DIR",
     "DEFAULT_PRESET",
     "preset_names",
@@ -176,14 +176,6 @@ class Pose:
         return self.camera_rotation_deg != (0.0, 0.0)
 
 
-def rotation_xy(ax_deg: float, ay_deg: float) -> NDArray[np.float64]:
-    """Rotation about x by ``ax_deg`` then about y by ``ay_deg`` (the disc tilt's convention)."""
-    ax, ay = math.radians(ax_deg), math.radians(ay_deg)
-    rx = np.array([[1, 0, 0], [0, math.cos(ax), -math.sin(ax)], [0, math.sin(ax), math.cos(ax)]])
-    ry = np.array([[math.cos(ay), 0, math.sin(ay)], [0, 1, 0], [-math.sin(ay), 0, math.cos(ay)]])
-    return ry @ rx
-
-
 @dataclass(frozen=True)
 class Scene:
     """A fully posed capture in world metres, ready for ray casting or a Blender scene."""
@@ -255,32 +247,16 @@ class Scene:
     def pixel_rays(
         self, rows: NDArray[np.float64], cols: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """Unit world directions through image positions.
-
-        Positions use the array-index convention: the centre of pixel ``[i, j]`` is
-        ``(row, col) = (i, j)``, row 0 at the top of the image.
-        """
+        """Unit world directions through image positions (pixel convention of :mod:`.kernel`)."""
         cam = self.preset.camera
-        width, height = cam.image_size_px
-        f = cam.focal_px
-        x = cols + 0.5 - width / 2.0
-        y = height / 2.0 - (rows + 0.5)
-        d = np.stack([x, y, -np.full_like(x, f)], axis=-1)
-        d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        if self.looks_straight_down:
-            return d
-        return d @ self.camera_rotation.T
+        d = camera_rays(rows, cols, cam.image_size_px, cam.focal_px)
+        return d if self.looks_straight_down else d @ self.camera_rotation.T
 
     def intersect_disc(
         self, directions: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """Points where camera rays meet the disc plane and a mask of those on the disc annulus."""
-        origin = self.camera_position
-        n = self.disc_normal
-        denom = directions @ n
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(np.abs(denom) > 1e-12, ((self.disc_center - origin) @ n) / denom, -1.0)
-        points = origin + t[..., None] * directions
+        t, points = intersect_plane(directions, self.camera_position, self.disc_center, self.disc_normal)
         radius = np.linalg.norm(self.to_disc_frame(points)[..., :2], axis=-1) * 1e3
         disc = self.preset.disc
         hit = (t > 0) & (radius >= disc.hole_radius_mm) & (radius <= disc.rim_radius_mm)
@@ -290,17 +266,15 @@ class Scene:
         """World points in the disc's own frame (x, y in its plane, z along its normal)."""
         return (points - self.disc_center) @ self.disc_rotation
 
+    def to_camera_frame(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        """World points in the camera's frame (x right, y up, looking down −z)."""
+        rel = np.asarray(points, dtype=np.float64) - self.camera_position
+        return rel if self.looks_straight_down else rel @ self.camera_rotation
+
     def project(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(row, col) image positions of world points, array-index convention (see pixel_rays)."""
+        """(row, col) image positions of world points (pixel convention of :mod:`.kernel`)."""
         cam = self.preset.camera
-        width, height = cam.image_size_px
-        rel = points - self.camera_position
-        if not self.looks_straight_down:
-            rel = rel @ self.camera_rotation  # into the camera frame
-        scale = cam.focal_px / -rel[..., 2]
-        cols = rel[..., 0] * scale + width / 2.0 - 0.5
-        rows = height / 2.0 - 0.5 - rel[..., 1] * scale
-        return np.stack([rows, cols], axis=-1)
+        return project(self.to_camera_frame(points), cam.image_size_px, cam.focal_px)
 
     def geometry_dict(self) -> dict[str, Any]:
         """The numbers a user or test needs to interpret a photo of this capture."""

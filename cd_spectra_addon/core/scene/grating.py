@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .capture import Disc
+from .kernel import COS_EPS, diffraction_at
 from ..spectra.grid import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTH_STEP_NM, hat_integrals
 
 __all__ = [
@@ -65,7 +66,6 @@ __all__ = [
 ]
 
 BESSEL_NODES = 32  # trapezoid nodes for J_m: aliasing error ~J_{32-m}(x) < 1e-12 for x < 10
-COS_EPS = 1e-3  # cosines are clamped here: keeps G/w² finite at grazing angles
 
 # Normal-incidence reflectance of aluminium seen from polycarbonate (n = 1.585), from Rakić
 # (1995) n, k of Al: R = ((n − 1.585)² + k²) / ((n + 1.585)² + k²), tabulated every 50 nm.
@@ -208,49 +208,31 @@ def surface_frame(
     light_intensity: float = 1.0,
     view_directions: NDArray[np.float64] | None = None,
 ) -> SurfaceFrame:
-    """Local grating frame at disc points (world metres). ``view_directions`` (unit, towards the
-    camera) may be given instead of being derived from the camera position."""
+    """Local grating frame at disc points (world metres): the kernel's geometry
+    (:func:`.kernel.diffraction_at`) plus the optics of the polycarbonate layer. ``view_directions``
+    (unit, towards the camera) may be given instead of being derived from the camera position."""
     p = np.asarray(points, dtype=np.float64)
-    n = np.asarray(disc_normal, dtype=np.float64)
-    n = n / np.linalg.norm(n)
-    rel = p - np.asarray(disc_center, dtype=np.float64)
-    radial = rel - (rel @ n)[..., None] * n
-    radius = np.linalg.norm(radial, axis=-1)
-    safe = np.where(radius > 1e-12, radius, 1.0)
-    r_hat = radial / safe[..., None]
-    t_hat = np.cross(n, r_hat)
-
-    to_light = np.asarray(light_position, dtype=np.float64) - p
-    dist2 = np.sum(to_light * to_light, axis=-1)
-    wi = to_light / np.sqrt(np.maximum(dist2, 1e-24))[..., None]
     if view_directions is None:
         to_cam = np.asarray(camera_position, dtype=np.float64) - p
-        wo = to_cam / np.linalg.norm(to_cam, axis=-1, keepdims=True)
-    else:
-        wo = view_directions
-    cos_i = wi @ n
-    cos_o = wo @ n
-    visible = (cos_i > 0.0) & (cos_o > 0.0) & (radius > 1e-12)
-    ci = np.clip(cos_i, COS_EPS, 1.0)
-    co = np.clip(cos_o, COS_EPS, 1.0)
-
-    hvec = wi + wo
-    u = np.sum(hvec * r_hat, axis=-1)
-    v = np.sum(hvec * t_hat, axis=-1)
+        view_directions = to_cam / np.linalg.norm(to_cam, axis=-1, keepdims=True)
+    geo = diffraction_at(p, view_directions, np.asarray(disc_center, dtype=np.float64),
+                         np.asarray(disc_normal, dtype=np.float64), np.asarray(light_position, dtype=np.float64))
+    visible = (geo.cos_i > 0.0) & (geo.cos_o > 0.0) & (geo.radius > 1e-12)
+    ci = np.clip(geo.cos_i, COS_EPS, 1.0)
+    co = np.clip(geo.cos_o, COS_EPS, 1.0)
     w = ci + co
-    dot_io = np.sum(wi * wo, axis=-1)
-    g_over_w2 = (1.0 + dot_io) ** 2 / (ci * co * w * w)
+    g_over_w2 = (1.0 + geo.dot_io) ** 2 / (ci * co * w * w)
 
     sin_i_in = np.sqrt(np.clip(1.0 - ci * ci, 0.0, 1.0)) / medium_index
     sin_o_in = np.sqrt(np.clip(1.0 - co * co, 0.0, 1.0)) / medium_index
     cos_i_in = np.sqrt(1.0 - sin_i_in * sin_i_in)
     cos_o_in = np.sqrt(1.0 - sin_o_in * sin_o_in)
 
-    cos_half = np.clip(np.sqrt(np.maximum(0.5 * (1.0 + dot_io), 0.0)), 0.0, 1.0)
-    irradiance = np.where(visible, light_intensity * ci / np.maximum(dist2, 1e-24), 0.0)
+    cos_half = np.clip(np.sqrt(np.maximum(0.5 * (1.0 + geo.dot_io), 0.0)), 0.0, 1.0)
+    irradiance = np.where(visible, light_intensity * ci / np.maximum(geo.lamp_dist2, 1e-24), 0.0)
     return SurfaceFrame(
-        u=u,
-        v=v,
+        u=geo.u,
+        v=geo.v,
         w_in=cos_i_in + cos_o_in,
         g_over_w2=g_over_w2,
         cos_i_in=cos_i_in,
@@ -258,7 +240,7 @@ def surface_frame(
         * (1.0 - fresnel_dielectric(co, medium_index)),
         front_reflectance=fresnel_dielectric(cos_half, medium_index),
         irradiance=irradiance,
-        radius_mm=radius * 1e3,
+        radius_mm=geo.radius * 1e3,
     )
 
 

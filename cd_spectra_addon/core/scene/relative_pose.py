@@ -24,11 +24,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capture import Camera, Light, Pose, Preset, Scene
-from .grating import COS_EPS
+from .kernel import camera_rays, diffraction_along, index_rays, project, rotation_about, rotation_xy, turn_between
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
-           "aimed_at", "mirror_point", "with_glint_at", "project", "near_axis", "with_lamp_distance",
-           "RayDiffraction", "pixel_rays", "ray_diffraction", "turn_between", "turned_in_plane", "plane_axis"]
+           "aimed_at", "mirror_point", "with_glint_at", "near_axis", "with_lamp_distance",
+           "RayDiffraction", "ray_diffraction", "turned_in_plane", "plane_axis"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
 
@@ -92,32 +92,24 @@ def scene_from_relative(rel: RelativePose, preset: Preset, image_size: tuple[int
     return Scene(replace(preset, camera=camera, light=light, disc_tilt_deg=(0.0, 0.0)), Pose())
 
 
-def _rotation(ax_deg: float, ay_deg: float) -> NDArray[np.float64]:
-    """Small rotation about the camera's x then y axis (degrees)."""
-    a, b = math.radians(ax_deg), math.radians(ay_deg)
-    rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
-    ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
-    return ry @ rx
-
-
 def apply_params(start: RelativePose, x: NDArray[np.float64]) -> RelativePose:
     """``start`` changed by the parameter vector (see :data:`N_PARAMS`):
     x[0:2] turn the whole capture about the lens (the camera's aim), x[2:4] turn the disc about
     its centre (tilt), x[4:6] turn the lamp about the disc centre, x[6] scales the lamp's distance
     from the disc centre (log), x[7] scales σ (log)."""
-    aim = _rotation(x[0], x[1])
+    aim = rotation_xy(x[0], x[1])
     centre = aim @ start.disc_centre_mm
     lamp_rel = aim @ (start.lamp_mm - start.disc_centre_mm)
     normal = aim @ start.disc_normal
     disc_x = aim @ start.disc_x
-    tilt = _rotation(x[2], x[3])
+    tilt = rotation_xy(x[2], x[3])
     normal = tilt @ normal
     disc_x = tilt @ disc_x
     # The lamp turns twice as far as the disc: the mirror direction, hence the glint and to first
     # order every pixel's λ₁, stays put, and the tilt is left with what only it does (the disc's
     # perspective). Without this a tilt and a lamp move trade off in a narrow valley.
     lamp_rel = tilt @ tilt @ lamp_rel
-    lamp_rel = _rotation(x[4], x[5]) @ lamp_rel * math.exp(x[6])
+    lamp_rel = rotation_xy(x[4], x[5]) @ lamp_rel * math.exp(x[6])
     return RelativePose(centre, normal, centre + lamp_rel, start.lobe_sigma * math.exp(x[7]), disc_x)
 
 
@@ -129,30 +121,9 @@ def nominal_scene(preset: Preset, image_size: tuple[int, int], focal_px: float) 
     return Scene(replace(preset, camera=cam))
 
 
-def _ray(rc: tuple[float, float], size: tuple[int, int], focal_px: float) -> NDArray[np.float64]:
-    """Unit direction (camera frame) through image point (row, col)."""
-    width, height = size
-    d = np.array([rc[1] + 0.5 - width / 2.0, height / 2.0 - (rc[0] + 0.5), -focal_px])
-    return d / np.linalg.norm(d)
-
-
-def project(point: NDArray[np.float64], size: tuple[int, int], focal_px: float) -> tuple[float, float]:
-    width, height = size
-    scale = focal_px / -point[2]
-    return (height / 2.0 - 0.5 - point[1] * scale, point[0] * scale + width / 2.0 - 0.5)
-
-
-def turn_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The rotation taking unit vector a to unit vector b (Rodrigues)."""
-    v = np.cross(a, b)
-    c = float(a @ b)
-    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    return np.eye(3) + k + k @ k / (1.0 + c)
-
-
 def aimed_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float) -> RelativePose:
     """``rel`` turned about the lens so that the disc centre appears at image point ``rc``."""
-    rot = turn_between(rel.disc_centre_mm / np.linalg.norm(rel.disc_centre_mm), _ray(rc, size, focal_px))
+    rot = turn_between(rel.disc_centre_mm / np.linalg.norm(rel.disc_centre_mm), camera_rays(rc[0], rc[1], size, focal_px))
     return RelativePose(rot @ rel.disc_centre_mm, rot @ rel.disc_normal, rot @ rel.lamp_mm, rel.lobe_sigma,
                         rot @ rel.disc_x)
 
@@ -176,10 +147,10 @@ def with_glint_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, i
     angles = np.zeros(2)
 
     def glint(a: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        turn = _rotation(a[0], a[1])
+        turn = rotation_xy(a[0], a[1])
         m = mirror_point(RelativePose(rel.disc_centre_mm, turn @ rel.disc_normal, rel.lamp_mm, rel.lobe_sigma,
                                       rel.disc_x))
-        return None if m is None or m[2] >= 0 else np.asarray(project(m, size, focal_px))
+        return None if m is None or m[2] >= 0 else project(m, size, focal_px)
 
     for _ in range(iterations):
         g = glint(angles)
@@ -199,7 +170,7 @@ def with_glint_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, i
             return None
         if np.max(np.abs(angles)) > 20.0:
             return None
-    turn = _rotation(angles[0], angles[1])
+    turn = rotation_xy(angles[0], angles[1])
     return RelativePose(rel.disc_centre_mm, turn @ rel.disc_normal, rel.lamp_mm, rel.lobe_sigma, turn @ rel.disc_x)
 
 
@@ -228,13 +199,6 @@ MIN_PLANE_SINE = math.sin(math.radians(2.0))  # lens and lamp closer than this, 
 # near-axis presets put it 0–3.3° away, the oblique ones 20–45°): there a tilted disc, not the
 # lamp, sets the plane the pattern moves in.
 BESIDE_LENS_DEG = 10.0
-
-
-def _turn_about(axis: NDArray[np.float64], angle_deg: float) -> NDArray[np.float64]:
-    """Rotation by ``angle_deg`` about the unit ``axis`` (Rodrigues)."""
-    a = math.radians(angle_deg)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * k @ k
 
 
 def plane_axis(rel: RelativePose) -> NDArray[np.float64] | None:
@@ -274,8 +238,8 @@ def turned_in_plane(rel: RelativePose, tilt_deg: float, swing_deg: float) -> Rel
         return None
     centre = np.asarray(rel.disc_centre_mm, dtype=np.float64)
     lamp = np.asarray(rel.lamp_mm, dtype=np.float64) - centre
-    tilt = _turn_about(axis, tilt_deg)
-    lamp = _turn_about(axis, 2.0 * tilt_deg + swing_deg) @ lamp
+    tilt = rotation_about(axis, tilt_deg)
+    lamp = rotation_about(axis, 2.0 * tilt_deg + swing_deg) @ lamp
     return replace(rel, disc_normal=tilt @ rel.disc_normal, disc_x=tilt @ rel.disc_x, lamp_mm=centre + lamp)
 
 
@@ -290,44 +254,18 @@ class RayDiffraction:
     radius_mm: NDArray[np.float64]
 
 
-def pixel_rays(index: NDArray[np.int64], size: tuple[int, int], focal_px: float) -> NDArray[np.float64]:
-    """Unit directions (camera frame) through the centres of flat pixel indices."""
-    width, height = size
-    rows, cols = np.divmod(np.asarray(index, dtype=np.int64), width)
-    d = np.stack([cols + 0.5 - width / 2.0, height / 2.0 - (rows + 0.5), np.full(rows.shape, -float(focal_px))],
-                 axis=1)
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
 def ray_diffraction(rays: NDArray[np.float64], rel: RelativePose, pitch_um: float) -> RayDiffraction:
-    """λ₁, v and amplitude along fixed camera rays for the capture ``rel``: the per-pixel
-    diffraction coordinate of :func:`.diffraction.pixel_diffraction`, computed in the camera's
-    frame without building a world scene (the pose fit evaluates it ~10³ times; the two agree to
-    1e-9, tests/test_pose_recovery.py)."""
-    p, n, lamp = rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm
-    denom = rays @ n
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(np.abs(denom) > 1e-12, float(p @ n) / denom, -1.0)
-    hit = t > 0
-    points = rays * t[:, None]
-    radial = points - p
-    radial -= (radial @ n)[:, None] * n
-    radius = np.linalg.norm(radial, axis=1)
-    r_hat = radial / np.maximum(radius, 1e-12)[:, None]
-    t_hat = np.cross(n, r_hat)
-    to_lamp = lamp - points
-    dist2 = np.einsum("ij,ij->i", to_lamp, to_lamp)
-    wi = to_lamp / np.sqrt(dist2)[:, None]
-    h = wi - rays
-    u = np.einsum("ij,ij->i", h, r_hat)
-    v = np.einsum("ij,ij->i", h, t_hat)
-    cos_i, cos_o = wi @ n, -(rays @ n)
-    ci = np.clip(cos_i, COS_EPS, 1.0)
-    co = np.clip(cos_o, COS_EPS, 1.0)
-    w = ci + co
-    dot_io = -np.einsum("ij,ij->i", wi, rays)
-    ref = float(np.sum((lamp - p) ** 2))
-    gain = np.where((cos_i > 0) & (cos_o > 0), (1.0 + dot_io) ** 2 / (ci * co * w * w) * ci * ref / dist2, 0.0)
-    sigma = rel.lobe_sigma
-    amplitude = np.where(hit, np.exp(-(v * v) / (2.0 * sigma * sigma)) * gain, 0.0)
-    return RayDiffraction(hit, np.abs(u) * pitch_um * 1e3, v, amplitude, np.where(hit, radius, np.inf))
+    """λ₁, v and amplitude along fixed camera rays for the capture ``rel``: :func:`.kernel.diffraction_along`
+    in the camera's frame (the pose fit evaluates it ~10³ times; it agrees with
+    :func:`.diffraction.pixel_diffraction` of the same capture to 1e-9, tests/test_pose_recovery.py)."""
+    hit, geo = diffraction_along(rays, np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm)
+    n = hit.size
+    lam = np.zeros(n)
+    v = np.zeros(n)
+    amp = np.zeros(n)
+    radius = np.full(n, np.inf)
+    lam[hit] = geo.lambda1_nm(pitch_um)
+    v[hit] = geo.v
+    amp[hit] = geo.visibility(rel.lobe_sigma) * geo.gain
+    radius[hit] = geo.radius
+    return RayDiffraction(hit, lam, v, amp, radius)

@@ -1,0 +1,263 @@
+"""The one geometric kernel: rotations, camera rays, projection, and the diffraction coordinate.
+
+Everything that asks "which wavelength does the first order show here, and how visible is it"
+comes through :func:`diffraction_at` — the readout and its forward matrix (per pixel), the pose
+fit (per camera ray, thousands of times), the BRDF of the numpy renderer, the set-up checks and
+the planner (along lines on the disc). The kernel is frame-free: it takes the eye, the disc
+centre and normal and the lamp in one frame (the world's for a :class:`~.capture.Scene`, the
+camera's for the pose fit), so there is one formula to get right.
+
+For a disc point with unit vectors ωi (to the lamp) and ωo (to the camera), order m lights up
+where u = (ωi + ωo)·r̂ = mλ/d and v = (ωi + ωo)·t̂ ≈ 0 (r̂ radial, t̂ = n × r̂ tangential):
+λ₁ = d·|u| is the first order's wavelength and exp(−v²/2σ²) its visibility for a lamp of
+angular size σ. The slowly varying rest of the BRDF, irradiance × Stam's G/w², is the ``gain``
+(relative to its value where the lamp's axis meets the disc centre).
+
+:func:`diffraction_along` also returns, on request, the derivatives of u, v and the gain with
+respect to the disc centre, the disc normal and the lamp (camera frame, the eye at the origin):
+the pose fit's Jacobian comes from them instead of from re-evaluating the kernel per parameter.
+
+Pixel convention everywhere: the centre of pixel ``[i, j]`` is ``(row, col) = (i, j)``, row 0 at
+the top; the camera looks down its own −z with x to the image's right and y up.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+COS_EPS = 1e-3  # cosines are clamped here: keeps G/w² finite at grazing angles
+
+__all__ = ["COS_EPS", "rotation_xy", "rotation_about", "turn_between", "camera_rays", "index_rays", "project",
+           "intersect_plane", "Diffraction", "Derivatives", "diffraction_at", "diffraction_along"]
+
+
+def rotation_xy(ax_deg: float, ay_deg: float) -> NDArray[np.float64]:
+    """Rotation about x by ``ax_deg`` then about y by ``ay_deg`` (the disc tilt's convention)."""
+    ax, ay = math.radians(ax_deg), math.radians(ay_deg)
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(ax), -math.sin(ax)], [0.0, math.sin(ax), math.cos(ax)]])
+    ry = np.array([[math.cos(ay), 0.0, math.sin(ay)], [0.0, 1.0, 0.0], [-math.sin(ay), 0.0, math.cos(ay)]])
+    return ry @ rx
+
+
+def rotation_about(axis: NDArray[np.float64], angle_deg: float) -> NDArray[np.float64]:
+    """Rotation by ``angle_deg`` about the unit ``axis`` (Rodrigues)."""
+    a = math.radians(angle_deg)
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * k @ k
+
+
+def turn_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The smallest rotation taking unit vector ``a`` to unit vector ``b`` (Rodrigues)."""
+    v = np.cross(a, b)
+    c = float(a @ b)
+    if c < -1.0 + 1e-12:  # opposite: half a turn about any perpendicular
+        p = np.cross(a, (1.0, 0.0, 0.0) if abs(a[0]) < 0.9 else (0.0, 1.0, 0.0))
+        p /= np.linalg.norm(p)
+        return 2.0 * np.outer(p, p) - np.eye(3)
+    k = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + k + k @ k / (1.0 + c)
+
+
+def camera_rays(rows: NDArray[np.float64], cols: NDArray[np.float64], size: tuple[int, int],
+                focal_px: float) -> NDArray[np.float64]:
+    """Unit directions in the camera frame through image positions (principal point at the
+    image centre)."""
+    width, height = size
+    x = np.asarray(cols, dtype=np.float64) + 0.5 - width / 2.0
+    y = height / 2.0 - (np.asarray(rows, dtype=np.float64) + 0.5)
+    inv = 1.0 / np.sqrt(x * x + y * y + float(focal_px) ** 2)
+    return np.stack([x * inv, y * inv, -float(focal_px) * inv], axis=-1)
+
+
+def index_rays(index: NDArray[np.int64], size: tuple[int, int], focal_px: float) -> NDArray[np.float64]:
+    """:func:`camera_rays` through the centres of flat pixel indices."""
+    rows, cols = np.divmod(np.asarray(index, dtype=np.int64), size[0])
+    return camera_rays(rows, cols, size, focal_px)
+
+
+def project(points: NDArray[np.float64], size: tuple[int, int], focal_px: float) -> NDArray[np.float64]:
+    """(row, col) image positions of camera-frame points (…, 3) in front of the camera."""
+    width, height = size
+    p = np.asarray(points, dtype=np.float64)
+    scale = float(focal_px) / -p[..., 2]
+    return np.stack([height / 2.0 - 0.5 - p[..., 1] * scale, p[..., 0] * scale + width / 2.0 - 0.5], axis=-1)
+
+
+def intersect_plane(rays: NDArray[np.float64], eye: NDArray[np.float64], centre: NDArray[np.float64],
+                    normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Ray parameters t (−1 where a ray runs parallel to the plane) and the points eye + t·ray
+    where unit ``rays`` meet the plane through ``centre`` with unit ``normal``; t > 0 in front."""
+    d = np.asarray(rays, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    e = np.asarray(eye, dtype=np.float64)
+    denom = d @ n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(np.abs(denom) > 1e-12, float((np.asarray(centre, dtype=np.float64) - e) @ n) / denom, -1.0)
+    return t, e + d * t[..., None]
+
+
+@dataclass(frozen=True)
+class Derivatives:
+    """∂/∂(disc centre, disc normal, lamp) of u, v and the gain: (n, 9) each, columns
+    (P_x, P_y, P_z, N_x, N_y, N_z, L_x, L_y, L_z). A change of the normal must keep it unit (a
+    change perpendicular to it), as a rotation gives."""
+
+    u: NDArray[np.float64]
+    v: NDArray[np.float64]
+    gain: NDArray[np.float64]
+    radius: NDArray[np.float64]  # ∂r (metres or mm, as the inputs)
+
+
+@dataclass(frozen=True)
+class Diffraction:
+    """The first-order coordinate at disc points (arrays over the points)."""
+
+    points: NDArray[np.float64]  # on the disc plane, the caller's frame and unit
+    radius: NDArray[np.float64]  # from the disc centre, the caller's unit
+    u: NDArray[np.float64]  # (ωi + ωo)·r̂
+    v: NDArray[np.float64]  # (ωi + ωo)·t̂
+    cos_i: NDArray[np.float64]  # ωi·n (≤ 0: the lamp is behind the disc)
+    cos_o: NDArray[np.float64]  # ωo·n
+    dot_io: NDArray[np.float64]  # ωi·ωo
+    lamp_dist2: NDArray[np.float64]  # squared distance to the lamp
+    gain: NDArray[np.float64]  # irradiance · G/w² relative to the lamp's irradiance at the disc centre
+    view: NDArray[np.float64]  # ωo, unit, towards the eye
+    to_lamp: NDArray[np.float64]  # ωi, unit
+    radial: NDArray[np.float64]  # r̂
+    derivatives: Derivatives | None = None
+
+    def lambda1_nm(self, pitch_um: float) -> NDArray[np.float64]:
+        """First-order wavelength d·|u|."""
+        return np.abs(self.u) * (pitch_um * 1e3)
+
+    def visibility(self, sigma: float) -> NDArray[np.float64]:
+        """exp(−v²/2σ²): how much of the lobe of a lamp of angular size σ reaches the eye."""
+        return np.exp(-(self.v * self.v) / (2.0 * sigma * sigma))
+
+
+def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def diffraction_at(points: NDArray[np.float64], view: NDArray[np.float64], centre: NDArray[np.float64],
+                   normal: NDArray[np.float64], lamp: NDArray[np.float64]) -> Diffraction:
+    """u, v, cosines and the gain at ``points`` on the disc plane, seen along unit ``view``
+    directions (towards the eye), lit from ``lamp``; all in one frame and length unit."""
+    p = np.asarray(points, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    c = np.asarray(centre, dtype=np.float64)
+    rel = p - c
+    radial = rel - _dot(rel, n)[..., None] * n
+    radius = np.sqrt(_dot(radial, radial))
+    r_hat = radial / np.maximum(radius, 1e-300)[..., None]
+    t_hat = np.cross(n, r_hat)
+    to_lamp = np.asarray(lamp, dtype=np.float64) - p
+    dist2 = _dot(to_lamp, to_lamp)
+    wi = to_lamp / np.sqrt(np.maximum(dist2, 1e-300))[..., None]
+    wo = np.asarray(view, dtype=np.float64)
+    h = wi + wo
+    cos_i, cos_o, dot_io = _dot(wi, n), _dot(wo, n), _dot(wi, wo)
+    ref = float(np.sum((np.asarray(lamp, dtype=np.float64) - c) ** 2))
+    return Diffraction(points=p, radius=radius, u=_dot(h, r_hat), v=_dot(h, t_hat), cos_i=cos_i, cos_o=cos_o,
+                       dot_io=dot_io, lamp_dist2=dist2, gain=_gain(cos_i, cos_o, dot_io, dist2, ref), view=wo,
+                       to_lamp=wi, radial=r_hat)
+
+
+def _gain(cos_i: NDArray[np.float64], cos_o: NDArray[np.float64], dot_io: NDArray[np.float64],
+          dist2: NDArray[np.float64], ref: float) -> NDArray[np.float64]:
+    """Irradiance × Stam's G/w² (G = (1 + ωi·ωo)² / (cos θi cos θo), w = cos θi + cos θo),
+    relative to the irradiance at distance √ref: the BRDF's slowly varying factor. Pixels that
+    share λ₁ then share the profile value A in I = A·visibility·gain wherever they are."""
+    ci = np.clip(cos_i, COS_EPS, 1.0)
+    co = np.clip(cos_o, COS_EPS, 1.0)
+    w = ci + co
+    g = (1.0 + dot_io) ** 2 / (ci * co * w * w)
+    return np.where((cos_i > 0) & (cos_o > 0), g * ci * ref / np.maximum(dist2, 1e-300), 0.0)
+
+
+def diffraction_along(rays: NDArray[np.float64], eye: NDArray[np.float64], centre: NDArray[np.float64],
+                      normal: NDArray[np.float64], lamp: NDArray[np.float64], derivatives: bool = False
+                      ) -> tuple[NDArray[np.bool_], Diffraction]:
+    """Where unit ``rays`` from ``eye`` meet the disc plane (in front of the eye) and the
+    diffraction coordinate there: (hit mask over the rays, :class:`Diffraction` over the hits).
+
+    ``derivatives`` (camera frame only: ``eye`` at the origin) adds ∂u, ∂v, ∂gain and ∂radius
+    with respect to the disc centre, the disc normal and the lamp (:class:`Derivatives`)."""
+    e = np.asarray(eye, dtype=np.float64)
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    c = np.asarray(centre, dtype=np.float64)
+    t, points = intersect_plane(rays, e, c, n)
+    hit = t > 0
+    keep = np.flatnonzero(hit)
+    d, t, points = np.asarray(rays, dtype=np.float64)[keep], t[keep], points[keep]
+    out = diffraction_at(points, -d, c, n, lamp)
+    if not derivatives:
+        return hit, out
+    if np.any(e != 0.0):
+        raise ValueError("derivatives are for the camera frame (eye at the origin)")
+    return hit, _with_derivatives(out, d, d @ n, c, n, np.asarray(lamp, dtype=np.float64))
+
+
+def _with_derivatives(out: Diffraction, d: NDArray[np.float64], denom: NDArray[np.float64],
+                      centre: NDArray[np.float64], n: NDArray[np.float64], lamp: NDArray[np.float64]) -> Diffraction:
+    """Forward-mode derivatives of the kernel (see :func:`diffraction_along`), by the chain rule
+    through the ray–plane intersection X = t·d, t = (n·P)/(n·d)."""
+    m = d.shape[0]
+    eye3 = np.eye(3)
+    # ∂X/∂θ (m, 3, 9): through t only (the ray is fixed)
+    dt = np.zeros((m, 9))
+    dt[:, 0:3] = n[None, :] / denom[:, None]  # ∂t/∂P
+    dt[:, 3:6] = (centre[None, :] - out.points) / denom[:, None]  # ∂t/∂N = (P − X)/(n·d)
+    dx = d[:, :, None] * dt[:, None, :]
+    # radial ρ = X − P (X is on the plane), r = |ρ|, r̂ = ρ/r
+    drho = dx.copy()
+    drho[:, :, 0:3] -= eye3[None, :, :]
+    r = np.maximum(out.radius, 1e-300)
+    rh = out.radial
+    dr = np.einsum("mi,mik->mk", rh, drho)
+    drh = (drho - rh[:, :, None] * dr[:, None, :]) / r[:, None, None]
+    # t̂ = n × r̂: ∂t̂ = ∂n × r̂ + n × ∂r̂
+    th = np.cross(n, rh)
+    dth = np.cross(n[None, :, None], drh, axisa=1, axisb=1, axisc=1)
+    for k in range(3):
+        dn = np.zeros(3)
+        dn[k] = 1.0
+        dth[:, :, 3 + k] += np.cross(dn, rh)
+    # ωi = q/|q|, q = L − X: ∂ωi = (I − ωi ωiᵀ)(∂L − ∂X)/|q|
+    wi = out.to_lamp
+    dq = -dx
+    dq[:, :, 6:9] += eye3[None, :, :]
+    qn = np.sqrt(np.maximum(out.lamp_dist2, 1e-300))
+    dwi = (dq - wi[:, :, None] * np.einsum("mi,mik->mk", wi, dq)[:, None, :]) / qn[:, None, None]
+    h = wi + out.view
+    du = np.einsum("mik,mi->mk", dwi, rh) + np.einsum("mi,mik->mk", h, drh)
+    dv = np.einsum("mik,mi->mk", dwi, th) + np.einsum("mi,mik->mk", h, dth)
+    # gain = g(ci, co, dot_io) · ci · ref / |q|²
+    dci = np.einsum("mik,i->mk", dwi, n)
+    dci[:, 3:6] += wi
+    dco = np.zeros((m, 9))
+    dco[:, 3:6] = out.view
+    ddot = np.einsum("mik,mi->mk", dwi, out.view)
+    ref = float(np.sum((lamp - centre) ** 2))
+    dref = np.zeros(9)
+    dref[0:3] = -2.0 * (lamp - centre)
+    dref[6:9] = 2.0 * (lamp - centre)
+    ddist2 = 2.0 * np.einsum("mi,mik->mk", lamp[None, :] - out.points, dq)
+    ci = np.clip(out.cos_i, COS_EPS, 1.0)
+    co = np.clip(out.cos_o, COS_EPS, 1.0)
+    live = (out.cos_i > COS_EPS) & (out.cos_o > COS_EPS)
+    w = ci + co
+    one = 1.0 + out.dot_io
+    # log gain = 2 log(1 + dot) − log co − 2 log w + log ref − log dist2   (ci cancels: ci/ci)
+    dlog = (2.0 * ddot / np.maximum(one, 1e-300)[:, None] - dco / co[:, None]
+            - 2.0 * (dci + dco) / w[:, None] + dref[None, :] / max(ref, 1e-300)
+            - ddist2 / np.maximum(out.lamp_dist2, 1e-300)[:, None])
+    dgain = np.where(live[:, None], out.gain[:, None] * dlog, 0.0)
+    deriv = Derivatives(u=du, v=dv, gain=dgain, radius=dr)
+    return Diffraction(**{**out.__dict__, "derivatives": deriv})
