@@ -456,7 +456,7 @@ def build_one(build_spec: Build, dist: Path, stage_dir: Path, *, wheels: bool, o
         "blender": f">= {build_spec.blender_min}" + (f", < {build_spec.blender_max}" if build_spec.blender_max else ""),
         "python": build_spec.python,
         "download_s": round(t_download, 1),
-        "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in zips},
+        "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in sorted(zips)},
     }
     here = this_platform()
     if here and here in {p.blender for p in build_spec.platforms}:
