@@ -176,13 +176,85 @@ def test_each_build_copy_passes_blenders_validator(spec: build_extension.Build, 
     assert _errors(blender_ext, built) == []
 
 
-def test_built_zips_hold_every_wheel_they_list(blender_ext: ModuleType) -> None:
-    """Zips from `make extension` in dist/ (when built; nothing here needs the network): valid for
-    Blender, and every wheel the manifest inside lists is in the zip."""
-    for zip_path in sorted((ROOT / "dist").glob("*.zip")):
-        proc = _validate_cli(zip_path)
-        assert proc.returncode == 0, (zip_path.name, proc.stdout + proc.stderr)
-        with zipfile.ZipFile(zip_path) as zf:
-            manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
-            missing = [w for w in manifest["wheels"] if w.removeprefix("./") not in zf.namelist()]
-        assert missing == [], (zip_path.name, missing)
+SPEC = build_extension.build_for_python()  # this Python's build: its tool validates, its tag fits
+TAG = build_extension.python_tag(SPEC)
+LINUX = build_extension.LINUX.blender
+
+
+def _fake_wheel(folder: Path, name: str) -> Path:
+    """A tiny wheel-named zip: Blender's tool and the check read wheel names, not their code."""
+    path = folder / name
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr(name.split("-")[0] + "/__init__.py", "")
+    return path
+
+
+def _zip(path: Path, manifest: str, held: list[str]) -> Path:
+    """A built zip in miniature: the manifest and the wheels it holds."""
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("blender_manifest.toml", manifest)
+        zf.writestr("__init__.py", "")
+        for name in held:
+            zf.writestr(f"wheels/{name}", b"")
+    return path
+
+
+ONNX = f"onnxruntime-1.0.0-{TAG}-{TAG}-manylinux_2_28_x86_64.whl"
+PILLOW = f"pillow-13.0.0-{TAG}-{TAG}-manylinux_2_28_x86_64.whl"
+PILLOW_WIN = f"pillow-13.0.0-{TAG}-{TAG}-win_amd64.whl"
+# What `blender_ext.py build --split-platforms` made before (issue 18): every platform's wheels in
+# `wheels`, this zip's only in the [build.generated] table it appends.
+SPLIT_TAIL = f'\n[build.generated]\nplatforms = ["{LINUX}"]\nwheels = ["./wheels/{ONNX}", "./wheels/{PILLOW}"]\n'
+
+
+def _manifest(wheels: list[str], platforms: tuple[build_extension.Platform, ...] = (build_extension.LINUX,)) -> str:
+    return build_extension.manifest_for(MANIFEST_TEXT, SPEC, wheels, platforms)
+
+
+@pytest.mark.parametrize("manifest, held, complaint", [
+    (_manifest([ONNX, PILLOW, PILLOW_WIN]), [ONNX, PILLOW], "wheels the zip lacks: ['wheels/" + PILLOW_WIN),
+    (_manifest([ONNX]), [ONNX, PILLOW], "does not list: ['wheels/" + PILLOW),
+    (_manifest([ONNX, PILLOW, PILLOW_WIN], SPEC.platforms) + SPLIT_TAIL, [ONNX, PILLOW],
+     "wheels the zip lacks: ['wheels/" + PILLOW_WIN),
+    (_manifest([ONNX, PILLOW], SPEC.platforms), [ONNX, PILLOW], "platforms is ["),
+    (_manifest([ONNX, f"numpy-2.0.0-{TAG}-{TAG}-manylinux_2_28_x86_64.whl"]),
+     [ONNX, f"numpy-2.0.0-{TAG}-{TAG}-manylinux_2_28_x86_64.whl"], "bundles numpy"),
+    (_manifest([ONNX, "pillow-13.0.0-cp310-cp310-win_amd64.whl"]), [ONNX, "pillow-13.0.0-cp310-cp310-win_amd64.whl"],
+     f"not for {TAG}"),
+], ids=["lists-a-wheel-it-lacks", "holds-an-unlisted-wheel", "split-platforms-manifest", "other-platforms",
+        "numpy", "other-python"])
+def test_the_build_check_refuses_a_zip_that_misleads_blender(tmp_path: Path, manifest: str, held: list[str],
+                                                             complaint: str) -> None:
+    good = _zip(tmp_path / "good.zip", _manifest([ONNX, PILLOW]), [ONNX, PILLOW])
+    assert build_extension.zip_problems(good, TAG, LINUX) == []
+    build_extension.check_zip(good, TAG, LINUX)
+    bad = _zip(tmp_path / "bad.zip", manifest, held)
+    problems = build_extension.zip_problems(bad, TAG, LINUX)
+    assert any(complaint in p for p in problems), problems
+    with pytest.raises(SystemExit, match="bad.zip"):
+        build_extension.check_zip(bad, TAG, LINUX)
+
+
+def test_a_built_zip_lists_exactly_the_wheels_it_holds(tmp_path: Path) -> None:
+    """Stage, Blender's build and the check, as `make extension` runs them for one platform (issue 18:
+    a zip's manifest listed 14 wheels of other platforms), from tiny wheels: no network."""
+    wheels = [_fake_wheel(tmp_path, n) for n in (ONNX, PILLOW)]
+    tool = [(build_extension.blender_ext_script(), None)]
+    out = build_extension.build_platform_zip(tool, wheels, SPEC, build_extension.LINUX, tmp_path / "stage",
+                                             tmp_path / "linux.zip")
+    with zipfile.ZipFile(out) as zf:
+        manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
+        held = sorted(n for n in zf.namelist() if n.endswith(".whl"))
+    assert held == [f"wheels/{ONNX}", f"wheels/{PILLOW}"]
+    assert manifest["wheels"] == [f"./{n}" for n in held]
+    assert manifest["platforms"] == [LINUX] and "generated" not in manifest["build"]
+    assert build_extension.zip_problems(out, TAG, LINUX) == []
+
+
+def test_the_build_stops_on_a_zip_it_must_not_ship(tmp_path: Path) -> None:
+    """The check runs inside the build: a numpy wheel gets into Blender's zip, and the build fails."""
+    numpy = _fake_wheel(tmp_path, f"numpy-2.0.0-{TAG}-{TAG}-manylinux_2_28_x86_64.whl")
+    tool = [(build_extension.blender_ext_script(), None)]
+    with pytest.raises(SystemExit, match="bundles numpy"):
+        build_extension.build_platform_zip(tool, [numpy], SPEC, build_extension.LINUX, tmp_path / "stage",
+                                           tmp_path / "linux.zip")

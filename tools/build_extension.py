@@ -10,12 +10,18 @@ built for and Blender 4.2.x may not filter a zip's wheels by Python tag:
 1. Download each build's pinned wheels for every platform (``pip download --only-binary=:all:
    --no-deps --python-version X``) into build/wheels/<build>/ (git-ignored, reused between
    builds; --offline uses only what is there). numpy is never bundled: Blender has its own.
-2. Stage the add-on in build/extension/<build>/: the files git knows (tracked or not ignored),
-   the wheels, and a copy of blender_manifest.toml with the build's Blender range, platforms and
-   wheel list written in. The committed manifest keeps ``wheels = []`` so the pins live here.
-3. ``blender_ext.py build --split-platforms`` (Blender's own tool from the bpy wheel), renamed to
-   ``cd_spectra-<version>-<build>-<platform>.zip``, then ``blender_ext.py validate`` on each zip.
-4. Smoke test on this machine: the wheels of this platform's zip are unpacked next to numpy of
+2. Stage the add-on once per platform in build/extension/<build>/<platform>/: the files git
+   knows (tracked or not ignored), that platform's wheels, and a copy of blender_manifest.toml
+   with the build's Blender range, that one platform and its wheels written in. The committed
+   manifest keeps ``wheels = []`` so the pins live here.
+3. ``blender_ext.py build`` (Blender's own tool from the bpy wheel) on each staged copy, into
+   ``cd_spectra-<version>-<build>-<platform>.zip``. Not ``--split-platforms``: it keeps every
+   platform's wheels in the manifest's ``wheels`` and lists the zip's own only in an appended
+   ``[build.generated]`` table, so the manifest names wheels the zip does not hold.
+4. Each zip is checked where it is built (``check_zip``: the manifest's wheels are exactly the
+   zip's, its platform is the zip's, no numpy, only the build's Python tag) and by
+   ``blender_ext.py validate``; only then is it moved into dist/.
+5. Smoke test on this machine: the wheels of this platform's zip are unpacked next to numpy of
    the kind that Blender bundles (1.26 from .venv for 3.11, 2.x from .venv313 for 3.13) in a
    Python started with ``-S`` (no site-packages), and must import; onnxruntime must load every
    model in models/ and run it.
@@ -38,6 +44,7 @@ import tomllib
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
@@ -186,7 +193,7 @@ def download_wheels(build_spec: Build, offline: bool) -> dict[str, list[Path]]:
             if len(have) != 1:
                 raise SystemExit(f"error: expected one {package} {version} wheel for {platform.blender}, "
                                  f"found {[p.name for p in have]}")
-            tag = "cp" + build_spec.python.replace(".", "")
+            tag = python_tag(build_spec)
             if f"-{tag}-" not in have[0].name:
                 raise SystemExit(f"error: {have[0].name} is not a {tag} wheel ({build_spec.name})")
             wheels.append(have[0])
@@ -223,16 +230,27 @@ def _set_field(text: str, key: str, value: str | None) -> str:
     return re.sub(pattern, "" if value is None else f"{key} = {value}\n", text, count=1, flags=re.MULTILINE)
 
 
-def manifest_for(text: str, build_spec: Build, wheel_names: list[str]) -> str:
-    """The committed manifest with one build's Blender range, platforms and wheels written in."""
+def manifest_for(text: str, build_spec: Build, wheel_names: list[str],
+                 platforms: tuple[Platform, ...] | None = None) -> str:
+    """The committed manifest with one build's Blender range, platforms and wheels written in.
+
+    ``platforms`` defaults to the whole build's; a per-platform zip passes its one platform, so
+    that Blender offers the zip only where its wheels load.
+    """
+    chosen = build_spec.platforms if platforms is None else platforms
     text = _set_field(text, "blender_version_min", f'"{build_spec.blender_min}"')
     text = _set_field(text, "blender_version_max",
                       None if build_spec.blender_max is None else f'"{build_spec.blender_max}"')
-    text = _set_field(text, "platforms", "[" + ", ".join(f'"{p.blender}"' for p in build_spec.platforms) + "]")
+    text = _set_field(text, "platforms", "[" + ", ".join(f'"{p.blender}"' for p in chosen) + "]")
     return manifest_with_wheels(text, wheel_names)
 
 
-def stage(per_platform: dict[str, list[Path]], build_spec: Build, where: Path = STAGE) -> Path:
+def stage(wheels: list[Path], build_spec: Build, platform: Platform, where: Path) -> Path:
+    """A copy of the add-on for one platform's zip: its wheels only, and a manifest naming them.
+
+    One stage per platform (not one ``--split-platforms`` build) so that the manifest Blender's
+    tool puts in each zip lists exactly the wheels that zip holds.
+    """
     if where.exists():
         shutil.rmtree(where)
     where.mkdir(parents=True)
@@ -247,14 +265,58 @@ def stage(per_platform: dict[str, list[Path]], build_spec: Build, where: Path = 
         shutil.copy2(src, dst)
     wheel_dir = where / "wheels"
     wheel_dir.mkdir()
-    names = set()
-    for wheels in per_platform.values():
-        for wheel in wheels:
-            shutil.copy2(wheel, wheel_dir / wheel.name)
-            names.add(wheel.name)
-    text = manifest_for(MANIFEST.read_text(encoding="utf-8"), build_spec, sorted(names))
+    for wheel in wheels:
+        shutil.copy2(wheel, wheel_dir / wheel.name)
+    text = manifest_for(MANIFEST.read_text(encoding="utf-8"), build_spec, sorted(w.name for w in wheels),
+                        (platform,))
     (where / MANIFEST.name).write_text(text, encoding="utf-8")
     return where
+
+
+def _manifest_lists(manifest: dict[str, Any], key: str) -> list[tuple[str, list[str]]]:
+    """Every list ``key`` that some Blender may read: the top-level one and, in a zip made with
+    ``--split-platforms``, the ``[build.generated]`` one that Blender swaps in when present."""
+    found = [(key, list(manifest.get(key) or []))]
+    generated = manifest.get("build", {}).get("generated")
+    if generated is not None and key in generated:
+        found.append((f"[build.generated] {key}", list(generated[key])))
+    return found
+
+
+def zip_problems(zip_path: Path, tag: str, platform: str) -> list[str]:
+    """Why a built zip would mislead Blender (empty when it would not).
+
+    Each wheel list in its manifest must be exactly the wheels it holds (Blender installs what
+    the manifest lists), each platform list must be just ``platform``, no numpy (Blender's own
+    must stay the only one), and every wheel must be for ``tag`` (e.g. ``cp311``).
+    """
+    with zipfile.ZipFile(zip_path) as zf:
+        names = zf.namelist()
+        if MANIFEST.name not in names:
+            return [f"no {MANIFEST.name}"]
+        manifest = tomllib.loads(zf.read(MANIFEST.name).decode("utf-8"))
+    held = {n for n in names if n.endswith(".whl")}
+    problems = []
+    for where, listed in _manifest_lists(manifest, "wheels"):
+        paths = {w.removeprefix("./") for w in listed}
+        if missing := sorted(paths - held):
+            problems.append(f"{where} lists wheels the zip lacks: {missing}")
+        if unlisted := sorted(held - paths):
+            problems.append(f"the zip holds wheels that {where} does not list: {unlisted}")
+    for where, platforms in _manifest_lists(manifest, "platforms"):
+        if platforms != [platform]:
+            problems.append(f"{where} is {platforms}, not [{platform!r}]")
+    if numpy := sorted(n for n in held if not wheel_name_ok(n.rpartition("/")[2])):
+        problems.append(f"bundles numpy (Blender has its own): {numpy}")
+    if foreign := sorted(n for n in held if f"-{tag}-" not in n):
+        problems.append(f"wheels not for {tag}: {foreign}")
+    return problems
+
+
+def check_zip(zip_path: Path, tag: str, platform: str) -> None:
+    """Stop the build on a zip whose manifest and contents disagree (see ``zip_problems``)."""
+    if problems := zip_problems(zip_path, tag, platform):
+        raise SystemExit(f"error: {zip_path.name}:\n  " + "\n  ".join(problems))
 
 
 def check_version() -> str:
@@ -345,48 +407,56 @@ def zip_name(version: str, build_spec: Build, platform: str) -> str:
     return f"cd_spectra-{version}-{build_spec.name}-{platform.replace('-', '_')}.zip"
 
 
+def python_tag(build_spec: Build) -> str:
+    """The wheel tag of the build's Python, e.g. ``cp311``."""
+    return "cp" + build_spec.python.replace(".", "")
+
+
+Validator = tuple[Path, Path | None]  # blender_ext.py and the Python to run it with (None: this one)
+
+
+def build_platform_zip(validators: list[Validator], wheels: list[Path], build_spec: Build,
+                       platform: Platform, stage_dir: Path, out: Path) -> Path:
+    """One platform's zip at ``out``: staged, built by Blender's tool, then checked and validated
+    here, so that no zip leaves the build unchecked."""
+    script = validators[0][0]
+    source = stage(wheels, build_spec, platform, stage_dir)
+    run_tool(script, "validate", str(source))
+    run_tool(script, "build", "--source-dir", str(source), "--output-filepath", str(out))
+    check_zip(out, python_tag(build_spec), platform.blender)
+    for tool, python in validators:
+        run_tool(tool, "validate", str(out), python=python)
+    return out
+
+
 def build_one(build_spec: Build, dist: Path, stage_dir: Path, *, wheels: bool, offline: bool,
               smoke_python: Path | None) -> dict[str, object]:
-    """One build's zips (one per platform), validated, renamed with the build's name."""
+    """One build's zips (one per platform), each checked and validated before it enters ``dist``."""
     version = check_version()
-    script = blender_ext_script()
+    validators: list[Validator] = [(blender_ext_script(), None)]
+    if smoke_python is not None and Path(smoke_python).resolve() != Path(sys.executable).resolve():
+        # and by the tool of the Blender this build is for (bpy 5.x for the 5.1+ build)
+        validators.append((blender_ext_script(smoke_python), smoke_python))
     start = time.perf_counter()
     per_platform = download_wheels(build_spec, offline) if wheels else {p.blender: [] for p in build_spec.platforms}
     t_download = time.perf_counter() - start
-    source = stage(per_platform, build_spec, stage_dir / build_spec.name)
-    run_tool(script, "validate", str(source))
+    shutil.rmtree(stage_dir / build_spec.name, ignore_errors=True)
     dist.mkdir(parents=True, exist_ok=True)
     for old in dist.glob(f"cd_spectra-{version}-{build_spec.name}-*.zip"):
         old.unlink()
     with tempfile.TemporaryDirectory(dir=dist) as raw:
-        run_tool(script, "build", "--split-platforms", "--source-dir", str(source), "--output-dir", raw)
-        made = sorted(Path(raw).glob(f"cd_spectra-{version}-*.zip"))
-        expected = {f"cd_spectra-{version}-{p.blender.replace('-', '_')}.zip": p.blender
-                    for p in build_spec.platforms}
-        if {z.name for z in made} != set(expected):
-            raise SystemExit(f"error: expected {sorted(expected)}, built {[z.name for z in made]}")
-        zips = []
-        for z in made:
-            target = dist / zip_name(version, build_spec, expected[z.name])
+        made = [build_platform_zip(validators, per_platform[p.blender], build_spec, p,
+                                   stage_dir / build_spec.name / p.blender,
+                                   Path(raw) / zip_name(version, build_spec, p.blender))
+                for p in build_spec.platforms]
+        zips = [dist / z.name for z in made]
+        for z, target in zip(made, zips):  # all or none: a failed check leaves none of them in dist
             os.replace(z, target)
-            zips.append(target)
-    for z in zips:
-        run_tool(script, "validate", str(z))
-        if smoke_python is not None and Path(smoke_python).resolve() != Path(sys.executable).resolve():
-            # and by the tool of the Blender this build is for (bpy 5.x for the 5.1+ build)
-            run_tool(blender_ext_script(smoke_python), "validate", str(z), python=smoke_python)
-        with zipfile.ZipFile(z) as zf:
-            names = zf.namelist()
-            bad = [n for n in names if n.startswith("wheels/") and not wheel_name_ok(n[7:])]
-            tag = "cp" + build_spec.python.replace(".", "")
-            foreign = [n for n in names if n.startswith("wheels/") and f"-{tag}-" not in n]
-            if bad or foreign:
-                raise SystemExit(f"error: {z.name} bundles {bad + foreign}")
     report: dict[str, object] = {
         "blender": f">= {build_spec.blender_min}" + (f", < {build_spec.blender_max}" if build_spec.blender_max else ""),
         "python": build_spec.python,
         "download_s": round(t_download, 1),
-        "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in zips},
+        "zips": {z.name: {"path": str(z), "mb": round(z.stat().st_size / 1e6, 2)} for z in sorted(zips)},
     }
     here = this_platform()
     if here and here in {p.blender for p in build_spec.platforms}:
