@@ -32,7 +32,7 @@ from ..errors import CDSpectraError, PhotoError
 from .load import load_for_estimate
 from ..photo.images import LinearImage
 from ..spectrum.model import SpectralModel, load_model
-from ..pose.pose_fit import PoseFit, colour_blur_nm
+from ..pose.result import PoseFit, colour_blur_nm
 from ..readout.readout import Readout
 from .result import DiscFit, Estimate
 from ..spectrum.solve import GaussianPrior, band_blend, fused_solve

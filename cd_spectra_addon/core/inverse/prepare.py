@@ -29,8 +29,8 @@ from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..readout.forward_matrix import bin_response, feature_matrix
 from ..photo.images import LinearImage
 from ..spectrum.model import model_inputs
-from ..pose.general_pose import fit_general_pose
-from ..pose.pose_fit import PoseFit
+from ..pose.fit import fit_pose
+from ..pose.result import PoseFit
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.solve import GaussianPrior, physics_solve, prior_solve
 
@@ -128,7 +128,7 @@ def prepare(
     saturated = np.asarray(image.saturated) | np.asarray(image.invalid)
     height, width, _ = rgb.shape
     if fit is None:
-        fit = fit_general_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities,
+        fit = fit_pose(rgb - rough_offset(rgb, saturated), preset, focal_px, sensitivities=camera.sensitivities,
                                saturated=saturated)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))

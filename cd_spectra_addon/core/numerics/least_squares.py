@@ -10,24 +10,31 @@ from numpy.typing import NDArray
 __all__ = ["levenberg_marquardt", "cauchy"]
 
 
-def levenberg_marquardt(residuals, x0: NDArray[np.float64], steps: NDArray[np.float64], max_iter: int = 30
-                        ) -> tuple[NDArray[np.float64], float, int]:
-    """Minimise Σ r(x)² with a forward-difference Jacobian; returns (x, cost, evaluations).
+def levenberg_marquardt(residuals, x0: NDArray[np.float64], steps: NDArray[np.float64], max_iter: int = 30,
+                        jacobian: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
+                        tol: float = 1e-5) -> tuple[NDArray[np.float64], float, int]:
+    """Minimise Σ r(x)² with the given ``jacobian`` or a forward-difference one (``steps``);
+    returns (x, cost, evaluations).
 
     ``residuals`` must return a vector of fixed length and order whatever x is (each entry the
-    same pixel or term), else the Jacobian is noise."""
+    same pixel or term), else the Jacobian is noise. Stops when a step improves the cost by less
+    than ``tol`` (relative) or no step improves it."""
     x = x0.copy()
     r = residuals(x)
     cost = float(r @ r)
     evals = 1
     lam = 1e-2
     for _ in range(max_iter):
-        jac = np.empty((r.size, x.size))
-        for k in range(x.size):
-            dx = np.zeros_like(x)
-            dx[k] = steps[k]
-            jac[:, k] = (residuals(x + dx) - r) / steps[k]
-        evals += x.size
+        if jacobian is not None:
+            jac = jacobian(x)
+            evals += 1
+        else:
+            jac = np.empty((r.size, x.size))
+            for k in range(x.size):
+                dx = np.zeros_like(x)
+                dx[k] = steps[k]
+                jac[:, k] = (residuals(x + dx) - r) / steps[k]
+            evals += x.size
         jtj = jac.T @ jac
         g = jac.T @ r
         improved = False
@@ -48,7 +55,7 @@ def levenberg_marquardt(residuals, x0: NDArray[np.float64], steps: NDArray[np.fl
                 lam = max(lam / 3, 1e-6)
                 break
             lam *= 4
-        if not improved or rel < 1e-5:
+        if not improved or rel < tol:
             break
     return x, cost, evals
 

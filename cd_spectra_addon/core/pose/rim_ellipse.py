@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .pose_fit import box_downsample
+from ..photo.resample import box_downsample
 
 WORK_SIDE = 256  # the outline is found on an image of about this size
 MIN_SHARE = 0.02  # of the image the disc must cover

@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..scene.capture import Preset
-from ..scene.diffraction import pixel_diffraction
 from ..numerics.least_squares import cauchy, levenberg_marquardt
-from .pose_fit import colour_blur_nm
-from ..scene.relative_pose import RelativePose, apply_params, scene_from_relative
+from ..scene.capture import Preset
+from ..scene.kernel import index_rays
+from ..scene.relative_pose import RelativePose, apply_params, ray_diffraction
+from .result import colour_blur_nm
 
 __all__ = ["colour_wavelengths", "streak_fit"]
 
@@ -81,19 +81,19 @@ def streak_fit(rgb: NDArray[np.float64], preset: Preset, focal_px: float, rel0: 
     weight = np.minimum(np.sqrt(sharp / np.median(sharp)), 3.0)  # how well each pixel's colour pins its λ
     sigma = rel0.lobe_sigma
     free = np.arange(6)
+    rays = index_rays(idx, (width, height), focal_px)
+    disc = preset.disc
 
     def residuals(y: NDArray[np.float64]) -> NDArray[np.float64]:
         x = x0.copy()
         x[free] = y
-        scene = scene_from_relative(apply_params(rel0, x), preset, (width, height), focal_px)
-        px = pixel_diffraction(scene, idx)
+        rd = ray_diffraction(rays, apply_params(rel0, x), disc.pitch_um)
+        on = rd.hit & (rd.radius_mm >= disc.grating_r_min_mm) & (rd.radius_mm <= disc.grating_r_max_mm)
+        l1 = rd.lambda1_nm
+        err = np.minimum(np.abs(l1 - lam_c), np.abs(l1 - 2.0 * lam_c))
         out = np.full((2, idx.size), MISS_PENALTY)
-        slot = np.searchsorted(idx, px.index)
-        l1 = px.lambda1_nm
-        err = np.minimum(np.abs(l1 - lam_c[slot]), np.abs(l1 - 2.0 * lam_c[slot]))
-        out[0, slot] = cauchy(err / LAMBDA_SCALE_NM * weight[slot])
-        out[1, slot] = cauchy(px.v / (2.0 * sigma))
-        out[:, slot[~px.on_tracks]] = MISS_PENALTY
+        out[0, on] = cauchy(err[on] / LAMBDA_SCALE_NM * weight[on])
+        out[1, on] = cauchy(rd.v[on] / (2.0 * sigma))
         return np.concatenate([out.ravel(), (y - x0[free]) / PRIOR_DEG])
 
     y, _, evals = levenberg_marquardt(residuals, x0[free], np.full(free.size, 0.01))

@@ -102,14 +102,14 @@ def intersect_plane(rays: NDArray[np.float64], eye: NDArray[np.float64], centre:
 
 @dataclass(frozen=True)
 class Derivatives:
-    """∂/∂(disc centre, disc normal, lamp) of u, v and the gain: (n, 9) each, columns
-    (P_x, P_y, P_z, N_x, N_y, N_z, L_x, L_y, L_z). A change of the normal must keep it unit (a
-    change perpendicular to it), as a rotation gives."""
+    """Directional derivatives of u, v, the gain and the radius, (n, k) each: column j along the
+    j-th given change of (disc centre, disc normal, lamp). A change of the normal must keep it
+    unit (a change perpendicular to it), as a rotation gives."""
 
     u: NDArray[np.float64]
     v: NDArray[np.float64]
     gain: NDArray[np.float64]
-    radius: NDArray[np.float64]  # ∂r (metres or mm, as the inputs)
+    radius: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -181,13 +181,15 @@ def _gain(cos_i: NDArray[np.float64], cos_o: NDArray[np.float64], dot_io: NDArra
 
 
 def diffraction_along(rays: NDArray[np.float64], eye: NDArray[np.float64], centre: NDArray[np.float64],
-                      normal: NDArray[np.float64], lamp: NDArray[np.float64], derivatives: bool = False
-                      ) -> tuple[NDArray[np.bool_], Diffraction]:
+                      normal: NDArray[np.float64], lamp: NDArray[np.float64],
+                      directions: NDArray[np.float64] | None = None) -> tuple[NDArray[np.bool_], Diffraction]:
     """Where unit ``rays`` from ``eye`` meet the disc plane (in front of the eye) and the
     diffraction coordinate there: (hit mask over the rays, :class:`Diffraction` over the hits).
 
-    ``derivatives`` (camera frame only: ``eye`` at the origin) adds ∂u, ∂v, ∂gain and ∂radius
-    with respect to the disc centre, the disc normal and the lamp (:class:`Derivatives`)."""
+    ``directions`` (9, k), camera frame only (``eye`` at the origin): k changes of (disc centre,
+    disc normal, lamp), stacked; adds the derivatives of u, v, the gain and the radius along
+    each (:class:`Derivatives`) — what a pose fit's Jacobian needs, by the chain rule through
+    the ray–plane intersection X = t·ray, t = (n·P)/(n·ray)."""
     e = np.asarray(eye, dtype=np.float64)
     n = np.asarray(normal, dtype=np.float64)
     n = n / np.linalg.norm(n)
@@ -197,67 +199,58 @@ def diffraction_along(rays: NDArray[np.float64], eye: NDArray[np.float64], centr
     keep = np.flatnonzero(hit)
     d, t, points = np.asarray(rays, dtype=np.float64)[keep], t[keep], points[keep]
     out = diffraction_at(points, -d, c, n, lamp)
-    if not derivatives:
+    if directions is None:
         return hit, out
     if np.any(e != 0.0):
         raise ValueError("derivatives are for the camera frame (eye at the origin)")
-    return hit, _with_derivatives(out, d, d @ n, c, n, np.asarray(lamp, dtype=np.float64))
+    return hit, _with_derivatives(out, d, d @ n, c, n, np.asarray(lamp, dtype=np.float64),
+                                  np.asarray(directions, dtype=np.float64))
 
 
 def _with_derivatives(out: Diffraction, d: NDArray[np.float64], denom: NDArray[np.float64],
-                      centre: NDArray[np.float64], n: NDArray[np.float64], lamp: NDArray[np.float64]) -> Diffraction:
-    """Forward-mode derivatives of the kernel (see :func:`diffraction_along`), by the chain rule
-    through the ray–plane intersection X = t·d, t = (n·P)/(n·d)."""
-    m = d.shape[0]
-    eye3 = np.eye(3)
-    # ∂X/∂θ (m, 3, 9): through t only (the ray is fixed)
-    dt = np.zeros((m, 9))
-    dt[:, 0:3] = n[None, :] / denom[:, None]  # ∂t/∂P
-    dt[:, 3:6] = (centre[None, :] - out.points) / denom[:, None]  # ∂t/∂N = (P − X)/(n·d)
-    dx = d[:, :, None] * dt[:, None, :]
+                      centre: NDArray[np.float64], n: NDArray[np.float64], lamp: NDArray[np.float64],
+                      directions: NDArray[np.float64]) -> Diffraction:
+    """Directional derivatives of the kernel (see :func:`diffraction_along`). Vector fields are
+    kept as three (m, k) component arrays: contiguous, so every step is one pass of numpy."""
+    dp, dn, dl = directions[0:3], directions[3:6], directions[6:9]  # (3, k) each
+    x = out.points
+    # t = (n·P)/(n·d): ∂t = (n·∂P + (P − X)·∂n)/(n·d); ∂X = d ∂t
+    dt = ((n @ dp)[None, :] + (centre[None, :] - x) @ dn) / denom[:, None]
+    dx = [d[:, i, None] * dt for i in range(3)]
     # radial ρ = X − P (X is on the plane), r = |ρ|, r̂ = ρ/r
-    drho = dx.copy()
-    drho[:, :, 0:3] -= eye3[None, :, :]
-    r = np.maximum(out.radius, 1e-300)
-    rh = out.radial
-    dr = np.einsum("mi,mik->mk", rh, drho)
-    drh = (drho - rh[:, :, None] * dr[:, None, :]) / r[:, None, None]
+    rh = [out.radial[:, i, None] for i in range(3)]
+    drho = [dx[i] - dp[i][None, :] for i in range(3)]
+    dr = rh[0] * drho[0] + rh[1] * drho[1] + rh[2] * drho[2]
+    inv_r = 1.0 / np.maximum(out.radius, 1e-300)[:, None]
+    drh = [(drho[i] - rh[i] * dr) * inv_r for i in range(3)]
     # t̂ = n × r̂: ∂t̂ = ∂n × r̂ + n × ∂r̂
-    th = np.cross(n, rh)
-    dth = np.cross(n[None, :, None], drh, axisa=1, axisb=1, axisc=1)
-    for k in range(3):
-        dn = np.zeros(3)
-        dn[k] = 1.0
-        dth[:, :, 3 + k] += np.cross(dn, rh)
-    # ωi = q/|q|, q = L − X: ∂ωi = (I − ωi ωiᵀ)(∂L − ∂X)/|q|
-    wi = out.to_lamp
-    dq = -dx
-    dq[:, :, 6:9] += eye3[None, :, :]
-    qn = np.sqrt(np.maximum(out.lamp_dist2, 1e-300))
-    dwi = (dq - wi[:, :, None] * np.einsum("mi,mik->mk", wi, dq)[:, None, :]) / qn[:, None, None]
-    h = wi + out.view
-    du = np.einsum("mik,mi->mk", dwi, rh) + np.einsum("mi,mik->mk", h, drh)
-    dv = np.einsum("mik,mi->mk", dwi, th) + np.einsum("mi,mik->mk", h, dth)
-    # gain = g(ci, co, dot_io) · ci · ref / |q|²
-    dci = np.einsum("mik,i->mk", dwi, n)
-    dci[:, 3:6] += wi
-    dco = np.zeros((m, 9))
-    dco[:, 3:6] = out.view
-    ddot = np.einsum("mik,mi->mk", dwi, out.view)
-    ref = float(np.sum((lamp - centre) ** 2))
-    dref = np.zeros(9)
-    dref[0:3] = -2.0 * (lamp - centre)
-    dref[6:9] = 2.0 * (lamp - centre)
-    ddist2 = 2.0 * np.einsum("mi,mik->mk", lamp[None, :] - out.points, dq)
+    th = np.cross(n, out.radial)
+    dth = [dn[1][None] * rh[2] - dn[2][None] * rh[1] + n[1] * drh[2] - n[2] * drh[1],
+           dn[2][None] * rh[0] - dn[0][None] * rh[2] + n[2] * drh[0] - n[0] * drh[2],
+           dn[0][None] * rh[1] - dn[1][None] * rh[0] + n[0] * drh[1] - n[1] * drh[0]]
+    # ωi = q/|q|, q = L − X: ∂ωi = (∂q − ωi (ωi·∂q))/|q|
+    wi = [out.to_lamp[:, i, None] for i in range(3)]
+    dq = [dl[i][None, :] - dx[i] for i in range(3)]
+    wdq = wi[0] * dq[0] + wi[1] * dq[1] + wi[2] * dq[2]
+    inv_q = 1.0 / np.sqrt(np.maximum(out.lamp_dist2, 1e-300))[:, None]
+    dwi = [(dq[i] - wi[i] * wdq) * inv_q for i in range(3)]
+    h = [wi[i] + out.view[:, i, None] for i in range(3)]
+    du = sum(rh[i] * dwi[i] + h[i] * drh[i] for i in range(3))
+    dv = sum(th[:, i, None] * dwi[i] + h[i] * dth[i] for i in range(3))
+    # gain = (1 + ωi·ωo)² / (cos θo w²) · ref/|q|² (w = cos θi + cos θo, ref = |L − P|²)
+    dci = sum(n[i] * dwi[i] for i in range(3)) + out.to_lamp @ dn
+    dco = out.view @ dn
+    ddot = sum(out.view[:, i, None] * dwi[i] for i in range(3))
+    ref_vec = lamp - centre
+    ref = float(ref_vec @ ref_vec)
+    dref = 2.0 * (ref_vec @ (dl - dp))
+    ddist2 = 2.0 * sum((lamp[i] - x[:, i, None]) * dq[i] for i in range(3))
     ci = np.clip(out.cos_i, COS_EPS, 1.0)
     co = np.clip(out.cos_o, COS_EPS, 1.0)
     live = (out.cos_i > COS_EPS) & (out.cos_o > COS_EPS)
-    w = ci + co
-    one = 1.0 + out.dot_io
-    # log gain = 2 log(1 + dot) − log co − 2 log w + log ref − log dist2   (ci cancels: ci/ci)
-    dlog = (2.0 * ddot / np.maximum(one, 1e-300)[:, None] - dco / co[:, None]
-            - 2.0 * (dci + dco) / w[:, None] + dref[None, :] / max(ref, 1e-300)
+    w = (ci + co)[:, None]
+    one = np.maximum(1.0 + out.dot_io, 1e-300)[:, None]
+    dlog = (2.0 * ddot / one - dco / co[:, None] - 2.0 * (dci + dco) / w + dref[None, :] / max(ref, 1e-300)
             - ddist2 / np.maximum(out.lamp_dist2, 1e-300)[:, None])
     dgain = np.where(live[:, None], out.gain[:, None] * dlog, 0.0)
-    deriv = Derivatives(u=du, v=dv, gain=dgain, radius=dr)
-    return Diffraction(**{**out.__dict__, "derivatives": deriv})
+    return Diffraction(**{**out.__dict__, "derivatives": Derivatives(u=du, v=dv, gain=dgain, radius=dr)})

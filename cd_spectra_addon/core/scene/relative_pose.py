@@ -27,7 +27,7 @@ from .capture import Camera, Light, Pose, Preset, Scene
 from .kernel import camera_rays, diffraction_along, index_rays, project, rotation_about, rotation_xy, turn_between
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
-           "aimed_at", "mirror_point", "with_glint_at", "near_axis", "with_lamp_distance",
+           "aimed_at", "mirror_point", "with_glint_at", "with_lamp_mirrored_at", "near_axis", "with_lamp_distance",
            "RayDiffraction", "ray_diffraction", "turned_in_plane", "plane_axis"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
@@ -137,6 +137,31 @@ def mirror_point(rel: RelativePose) -> NDArray[np.float64] | None:
         return None
     t = float(p @ n) / denom
     return image * t if t > 0 else None
+
+
+def with_lamp_mirrored_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float
+                          ) -> RelativePose | None:
+    """``rel`` with the lamp moved (its distance from the disc centre kept) so that the disc mirrors
+    it into the lens at image point ``rc``: on the ray reflected at the disc point seen there. None
+    where that ray leaves the disc's camera side or never reaches the lamp's distance."""
+    p, n = np.asarray(rel.disc_centre_mm, dtype=np.float64), np.asarray(rel.disc_normal, dtype=np.float64)
+    d = camera_rays(rc[0], rc[1], size, focal_px)
+    denom = float(d @ n)
+    if abs(denom) < 1e-12 or float(p @ n) / denom <= 0:
+        return None
+    spot = d * (float(p @ n) / denom)
+    out = d - 2.0 * float(d @ n) * n  # reflected, away from the disc towards the lamp
+    if float(out @ n) <= 0:
+        return None
+    # |spot + s·out − P| = R: s² + 2 s (out·(spot − P)) + |spot − P|² − R² = 0
+    radius = float(np.linalg.norm(np.asarray(rel.lamp_mm) - p))
+    q = spot - p
+    b = float(out @ q)
+    disc = b * b - (float(q @ q) - radius * radius)
+    if disc < 0:
+        return None
+    s = -b + math.sqrt(disc)
+    return replace(rel, lamp_mm=spot + s * out) if s > 0 else None
 
 
 def with_glint_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float,

@@ -1,0 +1,286 @@
+"""The pose fit: disc pose, lamp position and lamp size of any capture, from the photo.
+
+The preset is only a start. Coarse to fine:
+
+1. **Starts** (:mod:`.starts`): the cheap strategies — the preset's capture, the same lined up
+   with the photo's bright pattern, the disc's outline where it shows, each moved by the
+   rainbow's own colours.
+2. **Coarse**: the photo box-averaged to about :data:`COARSE_SIDE` px. Every start is scored by
+   the self-consistency (:mod:`.self_consistency`) on a coarse λ₁ profile (5 nm nodes, too coarse
+   to lock onto lamp lines) with the camera's colour at full weight (it pins the wavelength axis
+   along a single streak); the best few get Levenberg–Marquardt with the exact Jacobian. A
+   coarse pixel averages a stretch of the lobe, so the lobe is widened there by the pixel's span.
+3. **Escalations**, only when no coarse fit explains the photo (:data:`GOOD_COST`): the glint's
+   line and the in-plane valley (:data:`.starts.ESCALATIONS`), scanned on the coarse cost.
+4. **Fine**: the best coarse fit (and the best from the glint's line, if any) refined on the
+   photo's own pixels with a finer profile (3 nm) and the colour at 0.3 (the lamp's spectrum
+   within the lobe biases the colour by ~1 nm; the self-consistency is unbiased).
+
+The zero-order glint and clipped pixels are left out of every comparison. The result's residual
+and null residual are the binned consistency of :mod:`.result`, as the refusals expect.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..numerics.least_squares import levenberg_marquardt
+from ..photo.resample import box_downsample
+from ..scene.capture import Preset
+from ..scene.kernel import camera_rays, diffraction_along, project
+from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, scene_from_relative
+from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
+from .rim_ellipse import disc_base, disc_ellipse
+from .self_consistency import ProfileGrid, SelfConsistency
+from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
+
+__all__ = ["fit_pose", "COARSE_SIDE", "STAGES"]
+
+COARSE_SIDE = 256  # the coarse level's long side (px)
+COARSE_PIXELS = 3000  # pixels the coarse cost looks at
+FINE_PIXELS = 8000  # ...and the fine one
+REPORT_PIXELS = 12_000  # pixels the reported (binned) consistency looks at
+GRID_NM = (300.0, 2500.0)  # every λ₁ the disc shows: first order and the higher orders that share its |u|
+# (profile node spacing nm, weight of the camera's colour) of the coarse and the fine stage;
+# chosen on synthetic spectra (sample_spds) at realistic resolution, never on evaluation lamps.
+STAGES = ((5.0, 1.0), (3.0, 0.3))
+TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit each
+# Fitted: aim, tilt, lamp direction, σ. The lamp's distance stays the preset's: it moves λ₁ only
+# through the lamp's direction varying over the disc, and left free it soaked up colour errors of
+# an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
+FREE = np.array([0, 1, 2, 3, 4, 5, 7])
+LM_ITERATIONS = (15, 10)  # per stage: most of a fit's progress is in its first steps
+LM_TOL = 1e-3  # a step that improves the cost by less than this (relative) ends the stage
+PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
+PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log lamp distance, log σ
+GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
+_DEBUG = bool(os.environ.get("CDS_POSE_DEBUG"))
+
+
+@dataclass
+class _Level:
+    """The photo at one resolution: box-averaged ``factor`` × ``factor``, its pixels' rays
+    through their centres in the full photo (so no level shifts the principal point)."""
+
+    rgb: NDArray[np.float64]
+    saturated: NDArray[np.bool_] | None
+    factor: int
+    full_size: tuple[int, int]
+    focal_px: float  # of the full photo
+
+    @classmethod
+    def of(cls, rgb: NDArray[np.float64], saturated: NDArray[np.bool_] | None, factor: int,
+           focal_px: float) -> "_Level":
+        height, width = rgb.shape[:2]
+        small = box_downsample(rgb, factor)
+        sat = None if saturated is None else box_downsample(np.asarray(saturated, np.float64), factor) > 0
+        return cls(small, sat, factor, (width, height), focal_px)
+
+    @property
+    def flat(self) -> NDArray[np.float64]:
+        return self.rgb.reshape(-1, 3)
+
+    @property
+    def level_focal(self) -> float:
+        return self.focal_px / self.factor
+
+    def rays(self, index: NDArray[np.int64]) -> NDArray[np.float64]:
+        rows, cols = np.divmod(index, self.rgb.shape[1])
+        f = self.factor
+        return camera_rays(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, self.full_size, self.focal_px)
+
+    def sample(self, count: int) -> NDArray[np.int64]:
+        """Flat indices of up to ``count`` pixels (sorted): the brightest half, where the rainbow
+        is, and a fixed random sample of the rest, where the pose must predict darkness; clipped
+        pixels never. A partial sort: a full one of a 1 MP photo took 60 ms per call."""
+        lum = self.rgb.sum(axis=2).ravel()
+        if self.saturated is not None:
+            lum = np.where(self.saturated.reshape(-1), -np.inf, lum)
+        usable = int(np.sum(np.isfinite(lum)))
+        half = min(count // 2, usable)
+        bright = np.argpartition(-lum, half - 1)[:half] if half > 0 else np.zeros(0, dtype=np.int64)
+        rest = np.setdiff1d(np.flatnonzero(np.isfinite(lum)), bright)
+        take = min(count - half, rest.size)
+        pick = np.random.default_rng(0).choice(rest, size=take, replace=False) if take else rest[:0]
+        return np.sort(np.concatenate([bright, pick])).astype(np.int64)
+
+
+class _Problem:
+    """One stage's least-squares problem around a start: the photo's residuals, then the prior's."""
+
+    def __init__(self, level: _Level, sample: NDArray[np.int64], rays: NDArray[np.float64], start: RelativePose,
+                 preset: Preset, sensitivities: NDArray[np.float64] | None, stage: tuple[float, float]):
+        glint = _glint(rays, start, level.level_focal)
+        keep = np.flatnonzero(~glint)
+        node_nm, colour_weight = stage
+        blur = colour_blur_nm(preset, start.lobe_sigma, level.level_focal)
+        grid = ProfileGrid.with_camera(*GRID_NM, node_nm, sensitivities, blur, colour_weight)
+        self.start = start
+        self.objective = SelfConsistency(level.flat[sample[keep]], rays[keep], preset.disc, grid,
+                                         lambda x: apply_params(start, x), start.distance_mm / level.level_focal,
+                                         blur_v=2.0 * level.factor / level.focal_px)
+
+    def cost_at(self, rel: RelativePose) -> float:
+        r = self.objective.residuals_at(rel)
+        return float(r @ r)
+
+    def fit(self, x0: NDArray[np.float64], iterations: int, tol: float = LM_TOL) -> tuple[NDArray[np.float64], float]:
+        """LM over the free parameters from ``x0``: (parameters, cost with the prior)."""
+        prior_rows = np.zeros((N_PARAMS, FREE.size))
+        prior_rows[FREE, np.arange(FREE.size)] = PRIOR_WEIGHT / PRIOR_SCALE[FREE]
+
+        def full(y: NDArray[np.float64]) -> NDArray[np.float64]:
+            z = x0.copy()
+            z[FREE] = y
+            return z
+
+        def residuals(y: NDArray[np.float64]) -> NDArray[np.float64]:
+            z = full(y)
+            return np.concatenate([self.objective(z), PRIOR_WEIGHT * z / PRIOR_SCALE])
+
+        def jacobian(y: NDArray[np.float64]) -> NDArray[np.float64]:
+            return np.concatenate([self.objective.jacobian(full(y), FREE), prior_rows])
+
+        before = self.evaluations
+        y, cost, _ = levenberg_marquardt(residuals, x0[FREE], np.full(FREE.size, 1e-3), max_iter=iterations,
+                                         jacobian=jacobian, tol=tol)
+        if _DEBUG:
+            print(f"  LM {self.evaluations - before} evals, cost {cost:.5f}")
+        return full(y), cost
+
+    @property
+    def evaluations(self) -> int:
+        return self.objective.evaluations
+
+
+def _glint(rays: NDArray[np.float64], rel: RelativePose, focal_px: float) -> NDArray[np.bool_]:
+    """Rays that see the zero-order glint of ``rel`` (see :func:`.result.glint_mask`)."""
+    hit, geo = diffraction_along(rays, np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm)
+    out = np.zeros(hit.size, dtype=bool)
+    out[hit] = np.hypot(geo.u, geo.v) < ZERO_ORDER_SIGMAS * rel.lobe_sigma + 4.0 / focal_px
+    return out
+
+
+@dataclass
+class _Fitted:
+    cost: float
+    start: Start
+    params: NDArray[np.float64]
+
+    @property
+    def capture(self) -> RelativePose:
+        return apply_params(self.start.pose, self.params)
+
+
+def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
+             sensitivities: NDArray[np.float64] | None = None, saturated: NDArray[np.bool_] | None = None,
+             strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS) -> PoseFit:
+    """Disc pose, lamp position and lamp size of any capture from a linear photo (see the module
+    docstring). ``saturated`` pixels (clipped, invalid) are left out; with the camera's
+    ``sensitivities`` every λ₁ must also have the camera's colour there. ``strategies`` and
+    ``escalations`` name the start strategies (:data:`.starts.STRATEGIES`) to use."""
+    clock = _Clock()
+    rgb = np.asarray(rgb, dtype=np.float64)
+    height, width, _ = rgb.shape
+    size = (width, height)
+    outline = disc_ellipse(rgb, saturated)
+    if outline is not None:
+        # room light on the disc but not around it: the photo-wide offset missed it
+        rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
+    factor = max(1, int(round(max(height, width) / COARSE_SIDE)))
+    coarse = _Level.of(rgb, saturated, factor, focal_px)
+    fine = _Level.of(rgb, saturated, 1, focal_px)
+    clock.lap("levels")
+    ctx = StartContext(rgb, saturated, preset, float(focal_px), sensitivities, outline)
+    c_sample = coarse.sample(COARSE_PIXELS)
+    c_rays = coarse.rays(c_sample)
+    evals = 0
+
+    def problem(start: RelativePose, level: _Level = coarse, stage: tuple[float, float] = STAGES[0]) -> _Problem:
+        if level is coarse:
+            return _Problem(coarse, c_sample, c_rays, start, preset, sensitivities, stage)
+        return _Problem(level, f_sample, f_rays, start, preset, sensitivities, stage)
+
+    fits: list[_Fitted] = []
+    tiers = [[name for name in strategies if name != "colours"], [name for name in strategies if name == "colours"],
+             list(escalations)]
+    for k, tier in enumerate(tiers):
+        if not tier:
+            continue
+        if k == 2:  # escalations scan the coarse cost around the best fits so far
+            judge = problem(fits[0].capture if fits else ctx.nominal())
+            ctx.cost = judge.cost_at
+            ctx.found = [Start(f.start.strategy, f.capture) for f in fits] or ctx.found
+        new: list[Start] = []
+        for name in tier:
+            new.extend(STRATEGIES[name](ctx))
+        if k < 2:
+            ctx.found.extend(new)
+        else:
+            evals += judge.evaluations
+        scored = []
+        for s in new:
+            p = problem(s.pose)
+            scored.append((p.cost_at(s.capture), s))
+            evals += p.evaluations
+        scored.sort(key=lambda item: item[0])
+        for _, s in scored[:TRIED_STARTS]:
+            p = problem(s.pose)
+            x, cost = p.fit(s.params, LM_ITERATIONS[0])
+            evals += p.evaluations
+            fits.append(_Fitted(cost, s, x))
+            if cost <= GOOD_COST:
+                break
+        fits.sort(key=lambda fit: fit.cost)
+        clock.lap(("starts", "colours", "escalations")[k])
+        if _DEBUG:
+            print("tier", k, [(f.start.strategy, round(f.cost, 5)) for f in fits])
+        if fits and fits[0].cost <= GOOD_COST:
+            break
+    evals += ctx.evaluations
+    f_sample = fine.sample(FINE_PIXELS)
+    f_rays = fine.rays(f_sample)
+    finalists = fits[:1] + [f for f in fits[1:] if f.start.strategy == "glint-line"][:1]
+    finished = []
+    for f in finalists:
+        p = problem(f.capture, fine, STAGES[1])
+        x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1])
+        evals += p.evaluations
+        finished.append(_Fitted(cost, Start(f.start.strategy, f.capture), x))
+    best = min(finished, key=lambda fit: fit.cost)
+    clock.lap("fine")
+    rel = best.capture
+    scene = scene_from_relative(rel, preset, size, focal_px)
+    report = fine.sample(REPORT_PIXELS)
+    total = float(np.sum(fine.flat[report] ** 2))
+    colour = None if sensitivities is None else \
+        expected_colours(sensitivities, FIT_STEP_NM, colour_blur_nm(preset, rel.lobe_sigma, focal_px))
+    value = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=report, colour=colour)
+    null = consistency(rgb, scene, total, step_nm=FIT_STEP_NM, pixels=report, colour=colour, scramble=True)
+    centre = tuple(float(v) for v in project(rel.disc_centre_mm, size, focal_px))
+    glint = mirror_point(rel)
+    ring = tuple(float(v) for v in project(glint, size, focal_px)) if glint is not None else centre
+    clock.lap("report")
+    return PoseFit(center_px=centre, ring_center_px=ring, lobe_sigma=float(rel.lobe_sigma), focal_px=float(focal_px),
+                   distance_mm=rel.distance_mm, residual=value, evaluations=evals, null_residual=null,
+                   known_scene=scene, timing_ms=clock.laps(), strategy=best.start.strategy)
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.t = time.perf_counter()
+        self._laps: list[tuple[str, float]] = []
+
+    def lap(self, name: str) -> None:
+        now = time.perf_counter()
+        self._laps.append((name, (now - self.t) * 1e3))
+        self.t = now
+
+    def laps(self) -> tuple[tuple[str, float], ...]:
+        return tuple(self._laps)

@@ -1,0 +1,373 @@
+"""Where the pose fit starts: named strategies, each proposing captures from what the photo shows.
+
+A start is a :class:`~..scene.relative_pose.RelativePose` and a parameter vector around it
+(:func:`~..scene.relative_pose.apply_params`). Cheap strategies run on every photo; the fit asks
+the expensive ones (:data:`ESCALATIONS`) only when no cheap start ends in a fit that explains the
+photo. Each is a plain function of a :class:`StartContext`, registered in :data:`STRATEGIES` by
+name, so an evaluation can run or leave out any of them by name and a test can check each alone.
+
+- ``preset``: the capture the preset describes, seen by this camera.
+- ``pattern``: the same, turned about the lens so the photo's bright pattern lines up with the
+  predicted one (an FFT correlation on a small image).
+- ``outline``: where the disc's outline shows (room light), the two poses its ellipse allows
+  (:mod:`.rim_ellipse`), the lamp kept where the preset puts it relative to the disc.
+- ``rings``: for a camera above the disc, the rings' 180° symmetry centre read as the lamp's mirror
+  point, or as the disc centre.
+- ``colours``: each of those moved by the rainbow's own colours (:mod:`.streak_colours`): each
+  bright pixel's hue names its λ₁, a smooth fit good from far away.
+- ``glint-line`` (escalation): where the zero-order glint is seen (clipped), captures that mirror
+  the lamp exactly there, with the disc centre sought along the arcs' axis through it.
+- ``in-plane`` (escalation): the lamp and the disc turned about the normal of the plane of
+  incidence, scanned along the valley the photo's colours leave there.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..photo.resample import box_downsample
+from ..planning.capture_advice import glint_px
+from ..scene.capture import Preset, Scene
+from ..scene.diffraction import pixel_diffraction
+from ..scene.kernel import turn_between
+from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis,
+                                   nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
+                                   with_lamp_mirrored_at)
+from .rim_ellipse import Ellipse, circle_poses
+from .streak_colours import streak_fit
+
+__all__ = ["Start", "StartContext", "STRATEGIES", "CHEAP", "ESCALATIONS", "axis_of_arcs"]
+
+PATTERN_SIDE = 256  # the bright pattern is lined up on an image of about this size
+ARCS_STRENGTH = 0.05  # below this the rainbow is full rings: the disc centre is the glint's
+# The disc centre along the arcs' axis (glint-line). A tilt of θ under a near-axis camera puts the
+# centre D·tan θ from the glint: 24 mm is 6.5° at 210 mm. The coarse cost's valley in that offset
+# is ~2 mm wide, so it is sampled every half millimetre and its bottom found by a parabola.
+GLINT_LINE_MM = 24.0
+GLINT_LINE_STEP_MM = 0.5
+AIM_GRID_DEG = 0.15  # the line's best turned this far about the lens either way (glint centroid error)...
+AIM_GRID_STEP_DEG = 0.05  # ...in these steps
+# The in-plane valley; chosen on synthetic spectra (sample_spds), never on the evaluation's lamps.
+SWING_DEG = 12.0  # the lamp's in-plane angle scanned this far either way
+SWING_STEP_DEG = 0.5  # the coarse cost's teeth in that angle are ~0.5° wide at the bottom, ~1.5° apart
+SWUNG_STARTS = 2  # the deepest teeth of that scan are followed along the tilt
+TILT_DEG = 6.0  # ...this far either way
+TILT_STEP_DEG = 0.5
+VALLEY_STEP_DEG = 0.25  # the swing sampled this far either side of the valley's line at each tilt
+
+
+@dataclass(frozen=True)
+class Start:
+    strategy: str
+    pose: RelativePose
+    params: NDArray[np.float64] = field(default_factory=lambda: np.zeros(N_PARAMS))
+
+    @property
+    def capture(self) -> RelativePose:
+        return apply_params(self.pose, self.params)
+
+
+Cost = Callable[[RelativePose], float]
+
+
+@dataclass
+class StartContext:
+    """What the strategies look at: the photo (linear, offset removed), its clipped pixels, the
+    preset, the camera and the cheapest available cost of a capture (``cost``, set by the fit)."""
+
+    rgb: NDArray[np.float64]
+    saturated: NDArray[np.bool_] | None
+    preset: Preset
+    focal_px: float
+    sensitivities: NDArray[np.float64] | None
+    outline: Ellipse | None
+    cost: Cost | None = None
+    evaluations: int = 0
+    found: list[Start] = field(default_factory=list)  # every start proposed so far
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return (self.rgb.shape[1], self.rgb.shape[0])
+
+    def nominal(self) -> RelativePose:
+        return relative_pose(nominal_scene(self.preset, self.size, self.focal_px))
+
+
+def preset_start(ctx: StartContext) -> list[Start]:
+    return [Start("preset", ctx.nominal())]
+
+
+def _expected_pattern(scene: Scene) -> NDArray[np.float64]:
+    """Where the scene puts first-order light of 420–680 nm (amplitude per pixel, image-shaped)."""
+    width, height = scene.preset.camera.image_size_px
+    px = pixel_diffraction(scene)
+    keep = px.on_tracks & (px.lambda1_nm > 420) & (px.lambda1_nm < 680)
+    out = np.zeros(width * height)
+    out[px.index[keep]] = px.amplitude[keep]
+    return out.reshape(height, width)
+
+
+def _shift_by_correlation(photo_lum: NDArray[np.float64], pattern: NDArray[np.float64]) -> tuple[float, float]:
+    """(rows, cols) by which the photo's bright pattern is displaced from the predicted one."""
+    h, w = photo_lum.shape
+    a = np.fft.rfft2(photo_lum, s=(2 * h, 2 * w))
+    b = np.fft.rfft2(pattern, s=(2 * h, 2 * w))
+    corr = np.fft.irfft2(a * np.conj(b), s=(2 * h, 2 * w))
+    r, c = np.unravel_index(int(np.argmax(corr)), corr.shape)
+    r = r - 2 * h if r >= h else r
+    c = c - 2 * w if c >= w else c
+    return float(r), float(c)
+
+
+def _small(ctx: StartContext) -> tuple[NDArray[np.float64], int]:
+    height, width = ctx.rgb.shape[:2]
+    factor = max(1, int(round(max(height, width) / PATTERN_SIDE)))
+    lum = box_downsample(ctx.rgb, factor).sum(axis=2)
+    return np.clip(lum - np.median(lum), 0.0, None), factor
+
+
+def pattern_start(ctx: StartContext) -> list[Start]:
+    nominal = ctx.nominal()
+    lum, factor = _small(ctx)
+    sh, sw = lum.shape
+    dr, dc = _shift_by_correlation(lum, _expected_pattern(scene_from_relative(nominal, ctx.preset, (sw, sh),
+                                                                              ctx.focal_px / factor)))
+    x = np.zeros(N_PARAMS)  # the camera turned the other way from how the pattern moved
+    x[0] = -math.degrees(math.atan2(dr * factor, ctx.focal_px))
+    x[1] = -math.degrees(math.atan2(dc * factor, ctx.focal_px))
+    return [Start("pattern", nominal, x)]
+
+
+def symmetry_centre(lum: NDArray[np.floating]) -> tuple[float, float]:
+    """Centre of 180° symmetry (row, col) of a non-negative image: the autoconvolution
+    (I * I)(s) peaks at s = 2c when I is point-symmetric about c (sub-pixel by parabolas)."""
+    img = np.clip(np.asarray(lum, dtype=np.float64) - np.median(lum), 0, None)
+    h, w = img.shape
+    spec = np.fft.rfft2(img, s=(2 * h, 2 * w))
+    conv = np.fft.irfft2(spec * spec, s=(2 * h, 2 * w))
+    peak = np.unravel_index(int(np.argmax(conv)), conv.shape)
+    out = []
+    for axis, p in enumerate(peak):
+        idx = list(peak)
+        shift = 0.0
+        if 0 < p < conv.shape[axis] - 1:
+            idx[axis] = p - 1
+            left = conv[tuple(idx)]
+            idx[axis] = p + 1
+            right = conv[tuple(idx)]
+            denom = left - 2 * conv[peak] + right
+            shift = 0.0 if denom >= 0 else 0.5 * (left - right) / denom
+        out.append((p + shift) / 2.0)
+    return out[0], out[1]
+
+
+def rings_starts(ctx: StartContext) -> list[Start]:
+    """A camera above the disc (near-axis presets): the rings' 180° symmetry centre is where the
+    disc mirrors the lamp. Two readings of it: the lamp moved so its mirror point is there (the
+    lamp placed off its stated spot), and the camera aimed so the disc centre is there (a camera
+    moved sideways). Why: a coaxial lamp 5 mm off moves the rings' centre 2.5 mm, and a start
+    with the rings centred elsewhere settles in a wrong ring (cd-default, lamp swung 3°: lamp
+    fitted on the far side, λ₁ 2.6 nm off)."""
+    if not near_axis(ctx.preset):
+        return []
+    lum, factor = _small(ctx)
+    r, c = symmetry_centre(lum)
+    rc = ((r + 0.5) * factor - 0.5, (c + 0.5) * factor - 0.5)
+    nominal = ctx.nominal()
+    out = []
+    moved = with_lamp_mirrored_at(nominal, rc, ctx.size, ctx.focal_px)
+    if moved is not None:
+        out.append(Start("rings", moved))
+    out.append(Start("rings", aimed_at(nominal, rc, ctx.size, ctx.focal_px)))
+    return out
+
+
+def outline_starts(ctx: StartContext) -> list[Start]:
+    if ctx.outline is None:
+        return []
+    nominal = ctx.nominal()
+    out = []
+    for centre, normal in circle_poses(ctx.outline, ctx.preset.disc.rim_radius_mm, ctx.focal_px, ctx.size):
+        turn = turn_between(nominal.disc_normal, normal)
+        lamp = centre + turn @ (nominal.lamp_mm - nominal.disc_centre_mm)
+        out.append(Start("outline", RelativePose(centre, normal, lamp, nominal.lobe_sigma, turn @ nominal.disc_x)))
+    return out
+
+
+def colour_starts(ctx: StartContext) -> list[Start]:
+    """Every start found so far, moved so each bright pixel's colour matches its λ₁."""
+    if ctx.sensitivities is None:
+        return []
+    half = box_downsample(ctx.rgb, 2)
+    half_sat = None if ctx.saturated is None else box_downsample(np.asarray(ctx.saturated, np.float64), 2) > 0
+    out = []
+    for s in list(ctx.found):
+        y, n = streak_fit(half, ctx.preset, ctx.focal_px / 2.0, s.pose, s.params, ctx.sensitivities, half_sat)
+        ctx.evaluations += n
+        out.append(Start(f"colours ({s.strategy})", s.pose, y))
+    return out
+
+
+def axis_of_arcs(lum: NDArray[np.float64], centre: tuple[float, float], r_min: float, r_max: float
+                 ) -> tuple[float, float]:
+    """Angle of the line the rainbow concentrates on, and how strongly (0 = full rings, 1 = two
+    thin streaks), from the second angular harmonic of the energy around ``centre``."""
+    rows, cols = np.indices(lum.shape)
+    dy, dx = rows - centre[0], cols - centre[1]
+    r = np.hypot(dx, dy)
+    sel = (r >= r_min) & (r <= r_max)
+    w = lum[sel]
+    total = float(w.sum())
+    if total <= 0:
+        return 0.0, 0.0
+    phase = np.exp(2j * np.arctan2(-dy[sel], dx[sel]))
+    harmonic = complex(np.sum(w * phase)) / total
+    return 0.5 * math.atan2(harmonic.imag, harmonic.real), abs(harmonic)
+
+
+def _line_bases(ctx: StartContext) -> list[RelativePose]:
+    """The captures the glint's line is sought from: the preset's, and the best start so far."""
+    bases = [ctx.nominal()]
+    if ctx.found:
+        bases.append(ctx.found[0].capture)
+    return bases
+
+
+def glint_line_starts(ctx: StartContext) -> list[Start]:
+    """Where the clipped glint is, captures that mirror the lamp exactly there; the disc centre
+    sought along the arcs' axis through it (the deepest point of ``ctx.cost`` on each line).
+
+    Why: a disc tilted 5° under a near-axis camera puts the glint ~18 mm from the disc centre and
+    the rings become arcs about it. A centre 2 mm off along the arcs costs 20–30× the true one,
+    and LM from there settles 0.3° off in the aim, where the track edges cut the rings in the
+    wrong places (synthetic spectra: λ₁ 1 nm off, MAE 0.26 against 0.06 from the true pose)."""
+    if ctx.saturated is None or not np.any(ctx.saturated) or ctx.cost is None:
+        return []
+    glint = glint_px(ctx.rgb, np.asarray(ctx.saturated))
+    if glint is None:
+        return []
+    lum, factor = _small(ctx)
+    out = []
+    for base in _line_bases(ctx):
+        px_per_mm = ctx.focal_px / base.distance_mm
+        g_small = ((glint[0] + 0.5) / factor - 0.5, (glint[1] + 0.5) / factor - 0.5)
+        angle, strength = axis_of_arcs(lum, g_small, 15 * px_per_mm / factor, 60 * px_per_mm / factor)
+        axis = (-math.sin(angle), math.cos(angle)) if strength >= ARCS_STRENGTH else None
+        found = _deepest_on_line(ctx, base, glint, axis, px_per_mm)
+        if found is not None:
+            out.append(Start("glint-line", found))
+    return out
+
+
+def _deepest_on_line(ctx: StartContext, base: RelativePose, glint: tuple[float, float],
+                     axis: tuple[float, float] | None, px_per_mm: float) -> RelativePose | None:
+    assert ctx.cost is not None
+    size, f = ctx.size, ctx.focal_px
+
+    def at(t: float) -> RelativePose | None:
+        a = (0.0, 0.0) if axis is None else axis
+        centre = (glint[0] + t * px_per_mm * a[0], glint[1] + t * px_per_mm * a[1])
+        return with_glint_at(aimed_at(base, centre, size, f), glint, size, f)
+
+    offsets = np.zeros(1) if axis is None else np.arange(-GLINT_LINE_MM, GLINT_LINE_MM + 1e-9, GLINT_LINE_STEP_MM)
+    candidates = [(float(t), at(float(t))) for t in offsets]
+    candidates = [(t, rel) for t, rel in candidates if rel is not None]
+    if not candidates:
+        return None
+    costs = np.array([ctx.cost(rel) for _, rel in candidates])
+    k = int(np.argmin(costs))
+    best = (float(costs[k]), candidates[k][1])
+    if 0 < k < costs.size - 1:
+        curve = costs[k - 1] + costs[k + 1] - 2.0 * costs[k]
+        if curve > 0:
+            shift = 0.5 * (costs[k - 1] - costs[k + 1]) / curve
+            rel = at(candidates[k][0] + shift * GLINT_LINE_STEP_MM)
+            if rel is not None:
+                c = ctx.cost(rel)
+                best = (c, rel) if c < best[0] else best
+    # The clipped glint's centroid is ~2 px (0.1°) off the mirror point, and a 0.1° aim alone
+    # costs more than the pose's whole misfit: the best is turned about the lens on a small grid.
+    steps = np.arange(-AIM_GRID_DEG, AIM_GRID_DEG + 1e-9, AIM_GRID_STEP_DEG)
+    for a in steps:
+        for b in steps:
+            if a == 0.0 and b == 0.0:
+                continue
+            x = np.zeros(N_PARAMS)
+            x[0], x[1] = a, b
+            rel = apply_params(best[1], x)
+            c = ctx.cost(rel)
+            best = (c, rel) if c < best[0] else best
+    return best[1]
+
+
+def in_plane_starts(ctx: StartContext) -> list[Start]:
+    """The deepest point of the cost's valley in the two in-plane angles about the preset's
+    capture and the best start so far (:func:`.relative_pose.turned_in_plane`).
+
+    Why: on an oblique streak a degree of the lamp's (or the disc's) in-plane angle slides the
+    wavelength axis by ~40 nm, and the camera's colour along the streak makes the cost a comb of
+    valleys ~0.5° wide in the lamp's angle. Along the valley (tilt and swing together keep the
+    wavelength axis) the cost is flat and bumpy, and LM stops where it enters it. So: scan the
+    swing at zero tilt, then follow each of the deepest SWUNG_STARTS teeth along the tilt, the
+    swing re-centred at each step by a parabola through three samples."""
+    if ctx.cost is None:
+        return []
+    out = []
+    for base in _line_bases(ctx):
+        found = _valley(ctx.cost, base)
+        if found is not None:
+            out.append(Start("in-plane", found))
+    return out
+
+
+def _valley(cost_of: Cost, base: RelativePose) -> RelativePose | None:
+    if turned_in_plane(base, 0.0, 0.0) is None:
+        return None
+
+    def cost(tilt: float, swing: float) -> float:
+        rel = turned_in_plane(base, tilt, swing)
+        assert rel is not None
+        return cost_of(rel)
+
+    swings = np.arange(-SWING_DEG, SWING_DEG + 1e-9, SWING_STEP_DEG)
+    costs = np.array([cost(0.0, float(s)) for s in swings])
+    minima = [i for i in range(1, costs.size - 1) if costs[i] < costs[i - 1] and costs[i] <= costs[i + 1]]
+    minima.sort(key=lambda i: costs[i])
+    best: tuple[float, float, float] | None = None
+    for i in minima[:SWUNG_STARTS]:
+        for sign in (1.0, -1.0):
+            swing = float(swings[i])
+            for tilt in sign * np.arange(0.0 if sign > 0 else TILT_STEP_DEG, TILT_DEG + 1e-9, TILT_STEP_DEG):
+                h = VALLEY_STEP_DEG
+                c = [cost(float(tilt), swing + d) for d in (-h, 0.0, h)]
+                curve = c[0] + c[2] - 2.0 * c[1]
+                if curve > 0:
+                    shift = float(np.clip(0.5 * h * (c[0] - c[2]) / curve, -h, h))
+                    low = c[1] - 0.25 * (c[0] - c[2]) * shift / h
+                else:
+                    k = int(np.argmin(c))
+                    low, shift = c[k], (k - 1) * h
+                swing += shift
+                if best is None or low < best[0]:
+                    best = (low, float(tilt), swing)
+    if best is None:
+        return None
+    return turned_in_plane(base, best[1], best[2])
+
+
+STRATEGIES: dict[str, Callable[[StartContext], list[Start]]] = {
+    "preset": preset_start,
+    "pattern": pattern_start,
+    "outline": outline_starts,
+    "rings": rings_starts,
+    "colours": colour_starts,
+    "glint-line": glint_line_starts,
+    "in-plane": in_plane_starts,
+}
+CHEAP = ("preset", "pattern", "outline", "rings", "colours")
+ESCALATIONS = ("glint-line", "in-plane")
