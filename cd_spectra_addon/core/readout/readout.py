@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..numerics.special import norm_ppf
 from ..scene.capture import Scene
 from ..scene.diffraction import PixelDiffraction, pixel_diffraction
 
@@ -63,34 +64,6 @@ def _bin_median(bins: NDArray[np.int64], values: NDArray[np.float64], n_bins: in
     return out
 
 
-def _norm_ppf(p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverse standard normal CDF (Acklam's rational approximation, |error| < 1.2e-9)."""
-    a = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02, 1.383577518672690e02,
-         -3.066479806614716e01, 2.506628277459239e00)
-    b = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02, 6.680131188771972e01,
-         -1.328068155288572e01)
-    c = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00, -2.549732539343734e00,
-         4.374664141464968e00, 2.938163982698783e00)
-    d = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
-    p = np.clip(np.asarray(p, dtype=np.float64), 1e-12, 1 - 1e-12)
-    out = np.empty_like(p)
-    low, high = p < 0.02425, p > 1 - 0.02425
-    mid = ~(low | high)
-    q = np.sqrt(-2 * np.log(np.where(low, p, 0.5)))
-    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
-    den = (((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1
-    out[low] = (num / den)[low]
-    q = np.sqrt(-2 * np.log(np.where(high, 1 - p, 0.5)))
-    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
-    out[high] = -(num / den)[high]
-    q = p - 0.5
-    r = q * q
-    num = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q
-    den = ((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1
-    out[mid] = (num / den)[mid]
-    return out
-
-
 def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[np.int64],
             weight: NDArray[np.float64], vis: NDArray[np.float64]) -> NDArray[np.float64]:
     """Undo the bias of noise clipped at zero (integer encodings) in dark bins.
@@ -108,7 +81,7 @@ def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[n
         fix = (p0 > 0.005) & (p0 < 0.995) & (n >= 8) & (mean > 0)
         if not np.any(fix):
             continue
-        z = -_norm_ppf(p0[fix])
+        z = -norm_ppf(p0[fix])
         phi = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
         big_phi = 1.0 - p0[fix]
         sigma = mean[fix] / (z * big_phi + phi)
