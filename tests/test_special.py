@@ -12,8 +12,7 @@ import pytest
 from cd_spectra_addon.core.numerics.special import erf, erfc, norm_ppf
 
 X = np.concatenate([np.linspace(-6.0, 6.0, 2401), [0.0, -0.0, 1e-9, -1e-9, 12.0, -12.0, 40.0, -40.0]])
-# Below the upper tail (p > 0.97575): that branch is wrong before the next commit.
-P = np.concatenate([np.linspace(1e-6, 0.975, 2001), [1e-12, 1e-9, 0.02425, 0.5, 1 - 0.02425]])
+P = np.concatenate([np.linspace(1e-6, 1 - 1e-6, 2001), [1e-12, 1e-9, 0.02425, 0.5, 1 - 0.02425, 1 - 1e-9]])
 
 
 def test_erf_and_erfc_match_math_within_the_fits_error():
@@ -37,7 +36,13 @@ def test_erf_is_odd_and_bounded_and_keeps_shape():
 def test_norm_ppf_matches_the_standard_library():
     ref = np.array([NormalDist().inv_cdf(float(p)) for p in P])
     assert np.max(np.abs(norm_ppf(P) - ref)) < 1.2e-8  # Acklam: |error| < 1.2e-9 relative to |z| ≤ 7
-    assert np.isfinite(norm_ppf(0.0))  # clipped to 1e-12 from the end, not -inf
+    assert np.all(np.isfinite(norm_ppf([0.0, 1.0])))  # clipped to 1e-12 from the ends, not ±inf
+
+
+def test_norm_ppf_is_odd_about_one_half():
+    """Φ⁻¹(1 − p) = −Φ⁻¹(p): the upper tail once divided by the lower tail's denominator."""
+    p = np.linspace(1e-9, 0.5, 1001)
+    assert np.max(np.abs(norm_ppf(1.0 - p) + norm_ppf(p))) < 1e-8
 
 
 def test_against_scipy():

@@ -63,6 +63,7 @@ def norm_ppf(p: ArrayLike) -> NDArray[np.float64]:
     out[low] = (num / den)[low]
     q = np.sqrt(-2 * np.log(np.where(high, 1 - p, 0.5)))
     num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
+    den = (((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1
     out[high] = -(num / den)[high]
     q = p - 0.5
     r = q * q
