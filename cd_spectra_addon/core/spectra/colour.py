@@ -54,7 +54,10 @@ __all__ = [
     "xyz_to_xy",
     "xy_to_uv1960",
     "xy_to_uv_prime",
+    "uv1960_to_xy",
+    "hat_cmfs",
     "planck_uv1960",
+    "cct_duv_to_uv1960",
     "uv_to_cct_ohno2013",
     "cct_duv",
     "xyz_to_working_rgb",
@@ -216,6 +219,24 @@ def xy_to_uv_prime(xy: ArrayLike) -> NDArray[np.float64]:
     return np.stack([4.0 * arr[..., 0] / den, 9.0 * arr[..., 1] / den], axis=-1)
 
 
+def uv1960_to_xy(uv: ArrayLike) -> NDArray[np.float64]:
+    """CIE xy from CIE 1960 uv, the inverse of :func:`xy_to_uv1960`: x = 3u / d, y = 2v / d,
+    d = 2u − 8v + 4."""
+    arr = _as_vectors(uv, 2, "uv")
+    den = 2.0 * arr[..., 0] - 8.0 * arr[..., 1] + 4.0
+    if np.any(den <= 0):
+        raise CDSpectraError("uv is not a chromaticity (2u − 8v + 4 ≤ 0)")
+    return np.stack([3.0 * arr[..., 0] / den, 2.0 * arr[..., 1] / den], axis=-1)
+
+
+def hat_cmfs() -> NDArray[np.float64]:
+    """The CIE 1931 2° CMFs integrated against each grid sample's hat, (81, 3) in nm, read-only.
+
+    ``spd @ hat_cmfs()`` is :func:`spd_to_xyz` without its checks: the same linear map for rows
+    that may be zero (a mix's optional part), as the training prior needs for batches."""
+    return _tables().cmf_hat
+
+
 # --- CCT and Duv (Ohno 2014) ---------------------------------------------------------------
 
 
@@ -233,6 +254,18 @@ def planck_uv1960(cct: ArrayLike) -> NDArray[np.float64]:
     xyz = radiance @ t.cmf_planck
     den = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
     return np.stack([4.0 * xyz[..., 0] / den, 6.0 * xyz[..., 1] / den], axis=-1)
+
+
+def cct_duv_to_uv1960(cct: ArrayLike, duv: ArrayLike) -> NDArray[np.float64]:
+    """CIE 1960 uv at a CCT (K) and Duv, the inverse of :func:`uv_to_cct_ohno2013`: the
+    Planckian point at ``cct`` moved by ``duv`` along the locus normal (Duv > 0 towards +v,
+    above the locus). The normal is taken from the locus at CCT and CCT + 0.01 K, as
+    colour-science's ``CCT_to_uv_Ohno2013`` does. ``cct`` and ``duv`` broadcast: (...) → (..., 2)."""
+    temps, shift = np.broadcast_arrays(np.asarray(cct, dtype=np.float64), np.asarray(duv, dtype=np.float64))
+    uv0 = planck_uv1960(temps)
+    back = uv0 - planck_uv1960(temps + 0.01)  # along the locus, from CCT + 0.01 K back to CCT
+    back = back / np.hypot(back[..., 0], back[..., 1])[..., None]
+    return np.stack([uv0[..., 0] - shift * back[..., 1], uv0[..., 1] + shift * back[..., 0]], axis=-1)
 
 
 def _ohno_chunk(uv: NDArray[np.float64]) -> NDArray[np.float64]:
