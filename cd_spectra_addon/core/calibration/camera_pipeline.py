@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CDSpectraError
-from ..photo.srgb import srgb_decode, srgb_encode
+from ..photo.srgb import srgb_decode, srgb_encode, srgb_encode_slope
 
 __all__ = ["CameraPipeline", "fit_pipeline", "CURVE_KNOTS"]
 
@@ -140,7 +140,7 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
     def jacobian(x: NDArray[np.float64]) -> NDArray[np.float64]:
         display, clipped, _, seg, frac, out = parts(x)
         slope = (out[seg + 1] - out[seg]) / steps[seg]
-        dcode = np.where(display <= 0.0031308, 12.92, (1.055 / 2.4) * np.power(np.maximum(display, 1e-12), 1 / 2.4 - 1))
+        dcode = srgb_encode_slope(display)
         gain = np.where(clipped, 0.0, slope * dcode) * sw  # (N, 3)
         jac = np.zeros((3 * n + k - 2, 9 + k - 1))
         for c in range(3):
