@@ -22,6 +22,7 @@ import numpy as np
 
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset, preset_from_dict
 from ..errors import CDSpectraError
+from ..validation import check_number
 from .setups import VISIBLE_NM, SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
 
 __all__ = ["PlanError", "Equipment", "Plan", "PHONE", "CAMERA", "plan_capture", "setup_summary"]
@@ -124,20 +125,14 @@ class Plan:
 
 
 def _check(equipment: Equipment) -> None:
-    def positive(name: str, value: Any, low: float = 0.0) -> None:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > low
-        if not ok:
-            raise PlanError(f"{name} must be a number > {low:g}, not {value!r}")
-
-    positive("lamp distance (mm)", equipment.lamp_distance_mm)
-    positive("lamp size (mm)", equipment.lamp_size_mm)
-    positive("focal length (mm)", equipment.focal_mm)
-    positive("sensor width (mm)", equipment.sensor_width_mm)
-    positive("lamp housing (mm)", equipment.lamp_housing_mm)
+    for name, value in (("lamp distance (mm)", equipment.lamp_distance_mm), ("lamp size (mm)", equipment.lamp_size_mm),
+                        ("focal length (mm)", equipment.focal_mm), ("sensor width (mm)", equipment.sensor_width_mm),
+                        ("lamp housing (mm)", equipment.lamp_housing_mm)):
+        check_number(name, value, above=0.0, error=PlanError)
     if equipment.f_number is not None:
-        positive("f-number", equipment.f_number, 0.5)
+        check_number("f-number", equipment.f_number, above=0.5, error=PlanError)
     if equipment.min_focus_mm is not None:
-        positive("closest focus (mm)", equipment.min_focus_mm)
+        check_number("closest focus (mm)", equipment.min_focus_mm, above=0.0, error=PlanError)
     if equipment.lamp_distance_mm < 100.0:
         raise PlanError(f"a lamp {equipment.lamp_distance_mm:g} mm from the disc is too close: its first order "
                         "cannot reach the data area and the lamp would hang over the disc; put it ≥ 150 mm away")

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
 from ..errors import CDSpectraError
+from ..validation import check_number, check_numbers
 
 __all__ = [
     "VISIBLE_NM",
@@ -487,16 +488,12 @@ def _emitter_reaches(emitter: Emitter, hole: NDArray[np.float64], points: NDArra
 
 
 def _triple(value: Any, where: str) -> tuple[float, float, float]:
-    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
-        raise ValueError(f"setup.{where} needs 3 finite numbers, not {value!r}")
-    return (float(value[0]), float(value[1]), float(value[2]))
+    x, y, z = check_numbers(f"setup.{where}", value, 3)
+    return (x, y, z)
 
 
 def _positive(value: Any, where: str) -> float:
-    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
-        raise ValueError(f"setup.{where} must be a number > 0, not {value!r}")
-    return float(value)
+    return check_number(f"setup.{where}", value, above=0.0)
 
 
 def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
@@ -506,12 +503,9 @@ def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
     kind = data.get("kind")
     if kind not in ("near-axis", "oblique"):
         raise ValueError(f"setup.kind must be 'near-axis' or 'oblique', not {kind!r}")
-    body = _triple(data.get("camera_body_mm"), "camera_body_mm")
-    for i, v in enumerate(body):
-        _positive(v, f"camera_body_mm[{i}]")
-    offset = data.get("lens_offset_mm", [0.0, 0.0])
-    if not isinstance(offset, (list, tuple)) or len(offset) != 2:
-        raise ValueError("setup.lens_offset_mm needs 2 numbers")
+    x, y, z = check_numbers("setup.camera_body_mm", data.get("camera_body_mm"), 3, above=0.0)
+    body = (x, y, z)
+    offset = check_numbers("setup.lens_offset_mm", data.get("lens_offset_mm", [0.0, 0.0]), 2)
     bodies = []
     for i, b in enumerate(data.get("bodies", [])):
         size = _triple(b.get("size_mm"), f"bodies[{i}].size_mm")
@@ -526,7 +520,7 @@ def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
                           _triple(em.get("facing", [0, 0, -1]), "emitter.facing"))
     return SetUp(
         preset=preset, kind=kind, camera_body_mm=body,
-        lens_offset_mm=(float(offset[0]), float(offset[1])),
+        lens_offset_mm=(offset[0], offset[1]),
         aperture_mm=_positive(data.get("aperture_mm"), "aperture_mm"),
         source_size_mm=_positive(data.get("source_size_mm"), "source_size_mm"),
         bodies=tuple(bodies), emitter=emitter, steps=tuple(str(x) for x in data.get("steps", [])),
