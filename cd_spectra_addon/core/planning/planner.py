@@ -23,7 +23,8 @@ import numpy as np
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset, preset_from_dict
 from ..errors import CDSpectraError
 from ..validation import check_number
-from .setups import VISIBLE_NM, SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
+from .setups import SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
+from ..spectra.grid import VISIBLE_NM
 
 __all__ = ["PlanError", "Equipment", "Plan", "PHONE", "CAMERA", "plan_capture", "setup_summary"]
 

@@ -29,11 +29,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
+from ..spectra.grid import VISIBLE_NM
 from ..errors import CDSpectraError
 from ..validation import check_number, check_numbers
 
 __all__ = [
-    "VISIBLE_NM",
     "Box",
     "Emitter",
     "SetUp",
@@ -49,7 +49,6 @@ __all__ = [
     "setup_names",
 ]
 
-VISIBLE_NM = (400.0, 700.0)  # what the set-up must put on the data area
 _SAMPLES_PER_MM = 20  # line sampling; wavelengths are interpolated to ≪ 0.1 mm
 _EPS_MM = 1e-6
 

@@ -19,15 +19,14 @@ from numpy.typing import NDArray
 from ..numerics.special import norm_ppf
 from ..scene.capture import Scene
 from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+# The λ₁ bins live with the wavelength grids (planning bins the same way); re-exported here as
+# the readout's own: FEATURE_STEP_NM is re-exported for the pose fit, which imports it from here.
+from ..spectra.grid import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, MIN_VISIBILITY, N_FEATURES, feature_bins
 
-FEATURE_STEP_NM = 5.0
-FEATURE_LAMBDA_NM: NDArray[np.float64] = np.arange(350.0, 870.0 + 0.5, FEATURE_STEP_NM)  # 105 bins
-N_FEATURES = FEATURE_LAMBDA_NM.size
-MIN_VISIBILITY = 0.3
 OUTLIER_MADS = 5.0
 MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
 
-__all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Readout", "extract_readout"]
+__all__ = ["FEATURE_LAMBDA_NM", "FEATURE_STEP_NM", "MIN_VISIBILITY", "N_FEATURES", "Readout", "extract_readout"]
 
 
 @dataclass(frozen=True)
@@ -104,8 +103,7 @@ def extract_readout(
         raise ValueError("scene image size does not match the photo")
     if pixels is None:
         pixels = pixel_diffraction(scene)
-    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
-    b = np.floor((pixels.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
+    b = feature_bins(pixels.lambda1_nm)
     keep = pixels.on_tracks & (pixels.visibility >= min_visibility) & (b >= 0) & (b < N_FEATURES)
     sel = np.flatnonzero(keep)
     px = PixelDiffraction(**{k: v[sel] for k, v in pixels.__dict__.items()})

@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import CDSpectraError
 from .illuminants import C2_ITS90_NM_K, planck_radiance
-from .grid import N_BANDS, WAVELENGTHS_NM
+from .grid import N_BANDS, VISIBLE_NM, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
 
 __all__ = [
     "TABLES_FILE",
@@ -450,7 +450,7 @@ def luminance(spd: ArrayLike) -> float | NDArray[np.float64]:
 
 # --- comparison with a reference ------------------------------------------------------------
 
-_BANDS_NM = {"400_700": (400.0, 700.0), "380_780": (380.0, 780.0)}
+_BANDS_NM = {"400_700": VISIBLE_NM, "380_780": (WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)}
 
 
 def compare_spds(estimate: ArrayLike, reference: ArrayLike) -> dict[str, float | None]:

@@ -25,8 +25,8 @@ from numpy.typing import NDArray
 
 from ..errors import ModelError
 from ..validation import check_number
-from ..readout.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
-from ..spectra.grid import N_BANDS, WAVELENGTHS_NM
+from ..readout.readout import Readout
+from ..spectra.grid import FEATURE_LAMBDA_NM, N_BANDS, N_FEATURES, WAVELENGTHS_NM
 
 MODEL_DIR = Path(__file__).resolve().parents[3] / "models"
 MODEL_NAME = "cd_spectra"
