@@ -34,6 +34,9 @@ from ..errors import CDSpectraError
 from ..validation import check_number, check_numbers
 
 __all__ = [
+    "NEAR_AXIS",
+    "OBLIQUE",
+    "SETUP_KINDS",
     "Box",
     "Emitter",
     "SetUp",
@@ -48,6 +51,10 @@ __all__ = [
     "load_setup",
     "setup_names",
 ]
+
+NEAR_AXIS = "near-axis"  # the kinds of set-up: the source beside the lens, looking straight down
+OBLIQUE = "oblique"  # or lamp and camera on either side, the camera tilted towards the disc
+SETUP_KINDS = (NEAR_AXIS, OBLIQUE)
 
 _SAMPLES_PER_MM = 20  # line sampling; wavelengths are interpolated to ≪ 0.1 mm
 _EPS_MM = 1e-6
@@ -148,7 +155,7 @@ class SetUp:
     """A buildable capture: the preset (poses) plus what the forward model does not know."""
 
     preset: Preset
-    kind: str  # "near-axis" or "oblique"
+    kind: str  # NEAR_AXIS or OBLIQUE
     camera_body_mm: tuple[float, float, float]  # width, height, depth behind the lens front
     lens_offset_mm: tuple[float, float]  # lens centre from the body's front-face centre (image x, y)
     aperture_mm: float  # entrance pupil diameter (focal length / f-number)
@@ -500,8 +507,8 @@ def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
     if not isinstance(data, dict):
         raise ValueError("setup must be an object")
     kind = data.get("kind")
-    if kind not in ("near-axis", "oblique"):
-        raise ValueError(f"setup.kind must be 'near-axis' or 'oblique', not {kind!r}")
+    if kind not in SETUP_KINDS:
+        raise ValueError(f"setup.kind must be {' or '.join(map(repr, SETUP_KINDS))}, not {kind!r}")
     x, y, z = check_numbers("setup.camera_body_mm", data.get("camera_body_mm"), 3, above=0.0)
     body = (x, y, z)
     offset = check_numbers("setup.lens_offset_mm", data.get("lens_offset_mm", [0.0, 0.0]), 2)

@@ -26,6 +26,14 @@ from ..validation import check_number, check_numbers
 
 PRESET_DIR = Path(__file__).resolve().parents[2] / "presets"
 DEFAULT_PRESET = "cd-default"  # the capture a photo is read as unless the user picks another preset
+# The shipped presets a person can build (their files carry a "setup" section; designed by
+# tools/design_setups.py), and the two reference geometries the training renders besides.
+NEAR_AXIS_PRESET = "phone-near-axis"
+OBLIQUE_PRESET = "tripod-oblique"
+DISTANT_LAMP_PRESET = "phone-distant-lamp"
+SETUP_PRESETS = (NEAR_AXIS_PRESET, OBLIQUE_PRESET, DISTANT_LAMP_PRESET)
+FAR_LIGHT_PRESET = "cd-far-light"
+PAPER_PRESET = "paper"
 
 __all__ = [
     "Disc",
@@ -37,6 +45,12 @@ __all__ = [
     "rotation_xy",
     "PRESET_DIR",
     "DEFAULT_PRESET",
+    "NEAR_AXIS_PRESET",
+    "OBLIQUE_PRESET",
+    "DISTANT_LAMP_PRESET",
+    "SETUP_PRESETS",
+    "FAR_LIGHT_PRESET",
+    "PAPER_PRESET",
     "preset_names",
     "load_preset",
     "preset_from_dict",

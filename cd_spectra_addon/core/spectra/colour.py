@@ -46,7 +46,11 @@ __all__ = [
     "CCT_MIN_K",
     "CCT_MAX_K",
     "DUV_MAX",
+    "LINEAR_REC709",
+    "LINEAR_REC2020",
+    "ACESCG",
     "WORKING_SPACES",
+    "DEFAULT_WORKING_SPACE",
     "known_working_space",
     "LightColour",
     "spd_to_xyz",
@@ -75,13 +79,20 @@ CCT_MAX_K = 100000.0
 DUV_MAX = 0.05
 """Beyond these, CCT is not a meaningful description of a light's colour (Ohno 2014, ANSI C78.377)."""
 
-WORKING_SPACES: tuple[str, ...] = ("Linear Rec.709", "Linear Rec.2020", "ACEScg")
+# Blender's working colour spaces, by the names its OCIO config gives them.
+LINEAR_REC709 = "Linear Rec.709"
+LINEAR_REC2020 = "Linear Rec.2020"
+ACESCG = "ACEScg"
+WORKING_SPACES: tuple[str, ...] = (LINEAR_REC709, LINEAR_REC2020, ACESCG)
+DEFAULT_WORKING_SPACE = LINEAR_REC709
+"""Blender 4.x's only working space, and what light colours are given in when a Blender 5 file's
+space is not one of :data:`WORKING_SPACES` (a custom OCIO config)."""
 _SPACE_ALIASES = {
     # Blender's working_space_interop_id values, and the pre-4.0 name of the default space.
-    "lin_rec709_scene": "Linear Rec.709",
-    "Linear": "Linear Rec.709",
-    "lin_rec2020_scene": "Linear Rec.2020",
-    "lin_ap1_scene": "ACEScg",
+    "lin_rec709_scene": LINEAR_REC709,
+    "Linear": LINEAR_REC709,
+    "lin_rec2020_scene": LINEAR_REC2020,
+    "lin_ap1_scene": ACESCG,
 }
 
 _CASCADE_POINTS = 21  # locus points per refinement level
@@ -374,7 +385,7 @@ def _space(space: str) -> str:
     return name
 
 
-def xyz_to_working_rgb(xyz: ArrayLike, space: str = "Linear Rec.709") -> NDArray[np.float64]:
+def xyz_to_working_rgb(xyz: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> NDArray[np.float64]:
     """CIE XYZ (..., 3) → scene-linear RGB in a Blender working space (..., 3).
 
     ``space`` is Blender's ``working_space`` name ("Linear Rec.709", the 4.x default;
@@ -391,7 +402,7 @@ class LightColour(NamedTuple):
     out_of_gamut: bool
 
 
-def light_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> LightColour:
+def light_colour(spd: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> LightColour:
     """What a Blender light's ``color`` gets: working-space RGB with its largest channel 1.
 
     A light outside the working space's gamut (a narrow-band LED in Rec.709) has a negative
@@ -422,7 +433,7 @@ class SpectralColour:
     working_space: str
 
 
-def spectral_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> SpectralColour:
+def spectral_colour(spd: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> SpectralColour:
     """The colour of one SPD: xy, CCT, Duv and the light's RGB in ``space``, all from the SPD.
 
     The one computation behind the estimate, the CLI and the Blender lights, so a light's
