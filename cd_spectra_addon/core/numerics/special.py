@@ -5,14 +5,19 @@
   lobes with :func:`erf`; the training prior hat-integrates its lines with :func:`erfc`.
 - :func:`norm_ppf`: the inverse standard normal CDF Φ⁻¹ (Acklam's rational approximation,
   |error| < 1.2e-9); the readout uses it to undo noise clipped at zero.
+- :data:`FWHM_PER_SIGMA`: a Gaussian's full width at half maximum in standard deviations.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["erf", "erfc", "norm_ppf"]
+__all__ = ["FWHM_PER_SIGMA", "erf", "erfc", "norm_ppf"]
+
+FWHM_PER_SIGMA = 2.0 * math.sqrt(2.0 * math.log(2.0))  # 2.35482…
 
 
 def _erfc_of_abs(x: NDArray[np.float64]) -> NDArray[np.float64]:

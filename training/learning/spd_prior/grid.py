@@ -23,7 +23,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cd_spectra_addon.core.numerics.special import erfc
+from cd_spectra_addon.core.numerics.special import FWHM_PER_SIGMA, erfc
 from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTH_STEP_NM, WAVELENGTHS_NM, resample_to_grid
 
 Array = NDArray[np.float64]
@@ -32,7 +32,7 @@ GRID = WAVELENGTHS_NM
 D_FINE = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
 FINE_STEP_NM = 0.5
 FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
-FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
+FWHM_TO_SIGMA = 1.0 / FWHM_PER_SIGMA
 
 
 # ---------------------------------------------------------------------------------------------
