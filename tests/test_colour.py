@@ -189,6 +189,15 @@ class TestParity:
         assert np.max(np.abs(got[:, 1] - want[:, 1])) <= 1e-4
         assert np.max(np.abs(got[:, 0] - grid[:, 0])) <= 0.1  # and closer to the truth
 
+    def test_cct_duv_to_uv_and_uv_to_xy_invert_the_forward_maps(self, rng):
+        """The prior aims its whites with these: colour's CCT_to_uv_Ohno2013 and UCS_uv_to_xy."""
+        grid = np.stack([np.geomspace(1500, 25000, 40), rng.uniform(-0.02, 0.02, 40)], axis=-1)
+        uv = cc.cct_duv_to_uv1960(grid[:, 0], grid[:, 1])
+        np.testing.assert_allclose(uv, colour.temperature.CCT_to_uv_Ohno2013(grid), atol=1e-9)
+        np.testing.assert_allclose(cc.uv1960_to_xy(uv), colour.UCS_uv_to_xy(uv), atol=1e-15)
+        np.testing.assert_allclose(cc.xy_to_uv1960(cc.uv1960_to_xy(uv)), uv, atol=1e-15)
+        np.testing.assert_allclose(cc.hat_cmfs(), cc._tables().cmf_hat, rtol=0)
+
     def test_light_colour_of_d65_is_white(self):
         d65 = REAL["D65"]
         for space in SPACES:

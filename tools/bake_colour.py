@@ -41,6 +41,7 @@ from pathlib import Path
 import colour
 import numpy as np
 
+from cd_spectra_addon.core.spectra.colour import ACESCG, LINEAR_REC709, LINEAR_REC2020
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 TARGET = Path(__file__).resolve().parents[1] / "cd_spectra_addon" / "core" / "spectra" / "colour_tables.json"
@@ -52,9 +53,9 @@ TABLE_STEP_RATIO = 1.01  # coarse level only: it just has to bracket the nearest
 
 # name → (colour-science colourspace, illuminant of the XYZ fed to it, chromatic adaptation)
 WORKING_SPACES: dict[str, tuple[str, str, str | None]] = {
-    "Linear Rec.709": ("ITU-R BT.709", "D65", None),  # not "sRGB": its matrix is rounded
-    "Linear Rec.2020": ("ITU-R BT.2020", "D65", None),
-    "ACEScg": ("ACEScg", "D65", "Bradford"),
+    LINEAR_REC709: ("ITU-R BT.709", "D65", None),  # not "sRGB": its matrix is rounded
+    LINEAR_REC2020: ("ITU-R BT.2020", "D65", None),
+    ACESCG: ("ACEScg", "D65", "Bradford"),
 }
 
 

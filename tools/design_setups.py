@@ -20,27 +20,27 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from cd_spectra_addon.core.scene.capture import PRESET_DIR  # noqa: E402
+from cd_spectra_addon.core.scene.capture import DISTANT_LAMP_PRESET, NEAR_AXIS_PRESET, OBLIQUE_PRESET, PRESET_DIR  # noqa: E402
 from cd_spectra_addon.core.planning.planner import Equipment, Plan, plan_capture, setup_summary  # noqa: E402
-from cd_spectra_addon.core.planning.setups import analyse, setup_from_dict  # noqa: E402
+from cd_spectra_addon.core.planning.setups import NEAR_AXIS, OBLIQUE, analyse, setup_from_dict  # noqa: E402
 
 # name → (equipment, families, what it is)
 DESIGNS: dict[str, tuple[Equipment, tuple[str, ...], str]] = {
-    "phone-near-axis": (
+    NEAR_AXIS_PRESET: (
         Equipment(lamp_distance_mm=210.0, lamp_size_mm=2.0, focal_mm=26.0, sensor_width_mm=36.0, phone=True),
-        ("near-axis",),
+        (NEAR_AXIS,),
         "Phone held level over the disc; the source is a 2 mm hole in a card taped beside the lens, the lamp "
         "right behind the card.",
     ),
-    "tripod-oblique": (
+    OBLIQUE_PRESET: (
         Equipment(lamp_distance_mm=300.0, lamp_size_mm=3.0, focal_mm=24.0, sensor_width_mm=36.0, phone=False),
-        ("oblique",),
+        (OBLIQUE,),
         "Full-frame camera with a 24 mm lens at f/8 on a tripod, tilted towards the disc; a small lamp (an LED, "
         "or any lamp behind a card with a 3 mm hole) 300 mm from the disc at an angle.",
     ),
-    "phone-distant-lamp": (
+    DISTANT_LAMP_PRESET: (
         Equipment(lamp_distance_mm=2000.0, lamp_size_mm=10.0, focal_mm=26.0, sensor_width_mm=36.0, phone=True),
-        ("oblique",),
+        (OBLIQUE,),
         "A lamp 2 m away (a bulb of ~10 mm filament or LED cluster: small because it is far); the phone on a "
         "small tripod close to the disc, tilted towards it.",
     ),
@@ -76,7 +76,7 @@ def design(name: str) -> dict[str, Any]:
         "equipment": {k: v for k, v in equipment.__dict__.items() if v is not None},
         "steps": plan.instructions(),
     }
-    if plan.family == "near-axis":
+    if plan.family == NEAR_AXIS:
         setup.update(_pinhole_parts(plan))
     final = setup_from_dict(plan.setup.preset, setup)
     report = analyse(final)

@@ -21,7 +21,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from cd_spectra_addon.core.planning.setups import SetUp, analyse, camera_body_box, load_setup, setup_names  # noqa: E402
+from cd_spectra_addon.core.planning.setups import (  # noqa: E402
+    NEAR_AXIS, SetUp, analyse, camera_body_box, load_setup, setup_names)
 
 RAYS_NM = (400.0, 550.0, 700.0)
 RAY_COLOURS = {400.0: "#7a3cff", 550.0: "#2fae3a", 700.0: "#e0321e"}
@@ -138,7 +139,7 @@ def draw(setup: SetUp, path: Path) -> dict[str, object]:
                  + f"\nsource {setup.source_size_mm:g} mm")
     ax.annotate(lamp_text, shown_lamp, xytext=(8, -26), textcoords="offset points", fontsize=8)
     ax.plot([0, cam2[0]], [0, cam2[1]], color="0.3", lw=0.6, ls=":")
-    if setup.kind == "near-axis":
+    if setup.kind == NEAR_AXIS:
         ax.annotate(f"source {abs(lamp2[0] - cam2[0]):.0f} mm beside the lens", (lamp2[0], lamp2[1]),
                     xytext=(-10, 18), textcoords="offset points", fontsize=8, ha="right")
     worst = max(report.resolution_nm.values())

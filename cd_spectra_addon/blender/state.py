@@ -9,10 +9,9 @@ from typing import Any
 
 import bpy
 
+from ..core.spectra.colour import DEFAULT_WORKING_SPACE
 from ..core.spectra.grid import N_BANDS
 from .properties import GENERIC_CAMERA, NO_CALIBRATION
-
-DEFAULT_WORKING_SPACE = "Linear Rec.709"
 
 
 def working_space() -> str:

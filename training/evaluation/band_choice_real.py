@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PRIOR
 from cd_spectra_addon.core.spectrum.model import load_model
 
 from training.evaluation.evaluate import Condition, Photos, run_condition
@@ -56,8 +57,8 @@ def run(model, every: int, engine: str = "cycles", lamps: list[Lamp] | None = No
     network_everywhere = all(np.min(fusion.get(k, [1.0])) >= 1.0 for k in ("band_weight", "calibrated_band_weight"))
     with tempfile.TemporaryDirectory() as tmp:
         photos = Photos(tmp, engine)
-        for key, mdl, method in (("blend", model, "model"), ("network", _without_band_weights(model), "model"),
-                                 ("prior", model, "prior")):
+        for key, mdl, method in (("blend", model, METHOD_MODEL), ("network", _without_band_weights(model), METHOD_MODEL),
+                                 ("prior", model, METHOD_PRIOR)):
             if key == "network" and network_everywhere:  # w = 1 everywhere: the blend is the network
                 out[key] = out["blend"]
                 continue

@@ -30,6 +30,7 @@ from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.inverse.estimate import estimate_image, estimate_photo
+from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
 
@@ -55,14 +56,14 @@ def _large_model(quick: bool) -> Path | None:
 
 
 def _points(quick: bool) -> list[dict[str, Any]]:
-    pts = [{"name": "physics only", "method": "physics", "model": None, "max_side": 1024},
-           {"name": "physics + prior", "method": "prior", "model": None, "max_side": 1024},
-           {"name": "model (shipped)", "method": "model", "model": None, "max_side": 1024, "shipped": True},
-           {"name": "model, photo loaded at 512 px", "method": "model", "model": None, "max_side": 512},
-           {"name": "model, photo loaded at 256 px", "method": "model", "model": None, "max_side": 256}]
+    pts = [{"name": "physics only", "method": METHOD_PHYSICS, "model": None, "max_side": 1024},
+           {"name": "physics + prior", "method": METHOD_PRIOR, "model": None, "max_side": 1024},
+           {"name": "model (shipped)", "method": METHOD_MODEL, "model": None, "max_side": 1024, "shipped": True},
+           {"name": "model, photo loaded at 512 px", "method": METHOD_MODEL, "model": None, "max_side": 512},
+           {"name": "model, photo loaded at 256 px", "method": METHOD_MODEL, "model": None, "max_side": 256}]
     large = _large_model(quick)
     if large is not None:
-        pts.append({"name": "larger model (1024-1024-512)", "method": "model", "model": large, "max_side": 1024})
+        pts.append({"name": "larger model (1024-1024-512)", "method": METHOD_MODEL, "model": large, "max_side": 1024})
     return pts
 
 

@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.inverse.prepare import physics_spd, prepare
-from cd_spectra_addon.core.spectra.cameras import load_camera
-from cd_spectra_addon.core.scene.capture import load_preset
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.scene.capture import NEAR_AXIS_PRESET, load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.photo.images import load_photo
@@ -45,13 +45,13 @@ from training.simulation.render_numpy import render_cube
 
 READ_SIDE = 1024  # the product's crop: the disc ≈ 0.9 × this across
 VARIANTS = ((256, 256), (512, 512), (256, 1024), (512, 1024), (1024, 1024))  # (cube side, side read)
-CAMERA = "Canon_EOS_5D_Mark_III"
-GEOMETRIES = (("phone-near-axis, σ 0.0043 (preset)", None), ("phone-near-axis, σ 0.001 (thinnest streaks)", 0.001))
+CAMERA = DEFAULT_CAMERA
+GEOMETRIES = ((f"{NEAR_AXIS_PRESET}, σ 0.0043 (preset)", None), (f"{NEAR_AXIS_PRESET}, σ 0.001 (thinnest streaks)", 0.001))
 
 
 def _spec(size: int, sigma: float | None) -> CubeSpec:
-    return CubeSpec("probe", preset="phone-near-axis", size=size, lobe_sigma=sigma,
-                    focal_multiplier=disc_fill_multiplier("phone-near-axis"))
+    return CubeSpec("probe", preset=NEAR_AXIS_PRESET, size=size, lobe_sigma=sigma,
+                    focal_multiplier=disc_fill_multiplier(NEAR_AXIS_PRESET))
 
 
 class _Reader:

@@ -37,6 +37,7 @@ from cd_spectra_addon.core.inverse.calibration_shot import gains_from_image
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Disc, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.pose.pose_fit import fit_pose
 from cd_spectra_addon.core.photo.images import load_photo
@@ -147,7 +148,7 @@ def _calibration_for(photos: Photos, cond: Condition, model) -> Calibration:
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
 
 
-def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, method: str = "model",
+def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, method: str = METHOD_MODEL,
                   seed: int = 0) -> tuple[list[dict[str, float]], list[np.ndarray], float]:
     """Metrics per lamp, the estimates, and the mean seconds per photo (estimate only)."""
     cal = _calibration_for(photos, cond, model) if cond.calibrate else None
@@ -236,7 +237,7 @@ def rendering_check(lamps: list[Lamp], estimates: list[np.ndarray]) -> dict[str,
                                             image_size_px=(128, 128)),
                              light=replace(load_preset(DEFAULT_PRESET).light, position_mm=(0.0, 0.0, 80.0)))),
     }
-    to_rgb = colour_core.xyz_to_working_rgb(np.eye(3), "Linear Rec.709")  # rows: X, Y, Z → RGB
+    to_rgb = colour_core.xyz_to_working_rgb(np.eye(3), colour_core.LINEAR_REC709)  # rows: X, Y, Z → RGB
     xyz_cmf = np.stack([colour_core.spd_to_xyz(np.eye(81)[i]) for i in range(81)])  # (81, 3)
     observer = xyz_cmf @ to_rgb  # band → linear Rec.709
 
@@ -299,7 +300,7 @@ def main(argv: list[str] | None = None) -> int:
         # (ii) real lamps, three operating points.
         real: dict[str, Any] = {}
         estimates_model: list[np.ndarray] = []
-        for method in ("physics", "prior", "model"):
+        for method in (METHOD_PHYSICS, METHOD_PRIOR, METHOD_MODEL):
             rows, ests, sec = run_condition(photos, Condition("nominal", eval_nominal), lamps, model, method)
             fam: dict[str, list] = defaultdict(list)
             for r in rows:
@@ -311,7 +312,7 @@ def main(argv: list[str] | None = None) -> int:
                             "families": {k: summary(v) for k, v in sorted(fam.items())},
                             "confidence_vs_error": _correlation([r["confidence"] for r in rows],
                                                                 [r["mae_400_700"] for r in rows])}
-            if method == "model":
+            if method == METHOD_MODEL:
                 estimates_model = ests
             print(f"real lamps, {method}: {real[method]['all']}", flush=True)
         result["real_lamps"] = real
@@ -412,23 +413,23 @@ def render_markdown(r: dict[str, Any]) -> str:
               f"Goals: MAE ≤ {GOALS['mae_400_700']} (400–700) and ≤ {GOALS['mae_380_780']} (380–780), "
               f"r ≥ {GOALS['r']}, Δu'v' ≤ {GOALS['duv']}.", "",
               "| method | ms / photo | MAE 400–700 | MAE 380–780 | r | Δu'v' | |ΔCCT| K |", "|---|---|---|---|---|---|---|"]
-    for method in ("physics", "prior", "model"):
+    for method in (METHOD_PHYSICS, METHOD_PRIOR, METHOD_MODEL):
         s = real[method]["all"]
         lines.append(f"| {method} | {1e3 * real[method]['seconds_per_photo']:.0f} | {_fmt(s['mae_400_700'])} "
                      f"(median {_fmt(s['mae_400_700_median'])}) | {_fmt(s['mae_380_780'])} | "
                      f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} | {_fmt(s['abs_delta_cct_k'], 0)} |")
     lines += ["", "Per family (model):", "", "| family | n | MAE 400–700 | MAE 380–780 | r | Δu'v' |", "|---|---|---|---|---|---|"]
-    for fam, s in real["model"]["families"].items():
+    for fam, s in real[METHOD_MODEL]["families"].items():
         lines.append(f"| {fam} | {s['n']} | {_fmt(s['mae_400_700'])} | {_fmt(s['mae_380_780'])} | "
                      f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} |")
     for src in ("lspdd", "colour_science"):
-        s = real["model"][src]
+        s = real[METHOD_MODEL][src]
         lines.append(f"| *{src}* | {s['n']} | {_fmt(s['mae_400_700'])} | {_fmt(s['mae_380_780'])} | "
                      f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} |")
-    conf = real["model"]["all"]
+    conf = real[METHOD_MODEL]["all"]
     lines += ["", f"Confidence on these nominal photos: mean {conf.get('confidence', math.nan):.2f}, lowest "
               f"{conf.get('confidence_min', math.nan):.2f}; its correlation with the 400–700 nm error "
-              f"{_fmt(real['model']['confidence_vs_error'], 2)} (undefined when every photo gets the same value). "
+              f"{_fmt(real[METHOD_MODEL]['confidence_vs_error'], 2)} (undefined when every photo gets the same value). "
               "Across all robustness conditions below: "
               f"{_fmt(r.get('robustness_confidence_vs_error', math.nan), 2)} (negative is good).", "",
               "## (iii) Robustness (model; subset of "

@@ -12,6 +12,7 @@ import json
 import math
 from typing import Any
 
+from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, MODEL_NAME
 
 from training.learning.spd_prior import FAMILIES
@@ -109,8 +110,8 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
             "| test | MAE 400–700 | MAE 380–780 | r | Δu'v' |",
             "|---|---|---|---|---|",
         ]
-        for method, label in (("model", "real lamps, JPEG 1 % noise (model)"), ("prior", "… physics + prior"),
-                              ("physics", "… physics only")):
+        for method, label in ((METHOD_MODEL, "real lamps, JPEG 1 % noise (model)"), (METHOD_PRIOR, "… physics + prior"),
+                              (METHOD_PHYSICS, "… physics only")):
             s = real[method]["all"]
             lines.append(f"| {label} | {_f(s['mae_400_700'])} | {_f(s['mae_380_780'])} | {_f(s['pearson_r'], 3)} | "
                          f"{_f(s['delta_uv_prime'])} |")

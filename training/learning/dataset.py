@@ -34,7 +34,9 @@ from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
 from cd_spectra_addon.core.calibration.camera_fit import camera_prior
 from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.spectra.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Preset, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import (
+    DEFAULT_PRESET, DISTANT_LAMP_PRESET, FAR_LIGHT_PRESET, NEAR_AXIS_PRESET, OBLIQUE_PRESET, PAPER_PRESET, Pose, Preset,
+    Scene, load_preset)
 from cd_spectra_addon.core.scene.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import solving_camera
@@ -133,9 +135,9 @@ CUBE_SETS: dict[str, list[CubeSpec]] = {
         CubeSpec("tilted", tilt_deg=(1.5, -1.0), lobe_sigma=0.004),
         CubeSpec("far-235", distance_mm=235.0, camera_offset_mm=(1.0, 1.0)),
         CubeSpec("near-190", distance_mm=190.0, light_offset_mm=(0.0, -4.0), lobe_sigma=0.0025),
-        CubeSpec("far-light", preset="cd-far-light"),
-        CubeSpec("far-light-off", preset="cd-far-light", camera_offset_mm=(1.5, 0.0), lobe_sigma=0.004),
-        CubeSpec("paper", preset="paper"),
+        CubeSpec("far-light", preset=FAR_LIGHT_PRESET),
+        CubeSpec("far-light-off", preset=FAR_LIGHT_PRESET, camera_offset_mm=(1.5, 0.0), lobe_sigma=0.004),
+        CubeSpec("paper", preset=PAPER_PRESET),
     ],
     "smoke": [
         CubeSpec("nominal", size=96),
@@ -165,21 +167,21 @@ def _buildable(name: str, preset: str, **pose) -> CubeSpec:
 # Near-axis phone: the lamp 6–15 mm from the lens (the preset's is 12 mm on −x; offsets move it),
 # the camera ±4 mm off the centre and aimed up to 3° off, the disc tilted 0–5°.
 _NEAR_AXIS = [
-    _buildable("phone-nominal", "phone-near-axis"),  # lamp 12 mm, σ 0.0043
-    _buildable("phone-lamp-6", "phone-near-axis", light_offset_mm=(6.0, 0.0), lobe_sigma=0.002),
-    _buildable("phone-lamp-15", "phone-near-axis", light_offset_mm=(-3.0, 0.0), camera_offset_mm=(0.0, 2.0),
+    _buildable("phone-nominal", NEAR_AXIS_PRESET),  # lamp 12 mm, σ 0.0043
+    _buildable("phone-lamp-6", NEAR_AXIS_PRESET, light_offset_mm=(6.0, 0.0), lobe_sigma=0.002),
+    _buildable("phone-lamp-15", NEAR_AXIS_PRESET, light_offset_mm=(-3.0, 0.0), camera_offset_mm=(0.0, 2.0),
                lobe_sigma=0.006),
-    _buildable("phone-lamp-side", "phone-near-axis", light_offset_mm=(4.0, 8.0), camera_rotation_deg=(1.5, -2.0),
+    _buildable("phone-lamp-side", NEAR_AXIS_PRESET, light_offset_mm=(4.0, 8.0), camera_rotation_deg=(1.5, -2.0),
                lobe_sigma=0.001),  # lamp 11 mm at 45°
-    _buildable("phone-aimed", "phone-near-axis", camera_offset_mm=(-3.0, 2.5), camera_rotation_deg=(-3.0, 2.0),
+    _buildable("phone-aimed", NEAR_AXIS_PRESET, camera_offset_mm=(-3.0, 2.5), camera_rotation_deg=(-3.0, 2.0),
                lobe_sigma=0.003),  # lamp 9 mm
-    _buildable("phone-tilt-3", "phone-near-axis", light_offset_mm=(2.0, 0.0), camera_offset_mm=(1.5, -1.0),
+    _buildable("phone-tilt-3", NEAR_AXIS_PRESET, light_offset_mm=(2.0, 0.0), camera_offset_mm=(1.5, -1.0),
                tilt_deg=(3.0, 0.0), lobe_sigma=0.005),
-    _buildable("phone-tilt-5", "phone-near-axis", tilt_deg=(-2.0, 4.5), camera_rotation_deg=(0.0, 1.0),
+    _buildable("phone-tilt-5", NEAR_AXIS_PRESET, tilt_deg=(-2.0, 4.5), camera_rotation_deg=(0.0, 1.0),
                lobe_sigma=0.0025),
-    _buildable("phone-large-lamp", "phone-near-axis", camera_offset_mm=(0.0, -4.0), tilt_deg=(1.0, 1.0),
+    _buildable("phone-large-lamp", NEAR_AXIS_PRESET, camera_offset_mm=(0.0, -4.0), tilt_deg=(1.0, 1.0),
                lobe_sigma=0.01),
-    _buildable("phone-combined", "phone-near-axis", camera_offset_mm=(3.3, -3.3), camera_rotation_deg=(1.0, -2.0),
+    _buildable("phone-combined", NEAR_AXIS_PRESET, camera_offset_mm=(3.3, -3.3), camera_rotation_deg=(1.0, -2.0),
                tilt_deg=(3.0, 0.0), lobe_sigma=0.004),  # lamp 15.6 mm
 ]
 # The two oblique set-ups: lamp ±5 mm / ±3°, camera ±5 mm / ±3°, disc tilted 0–5°. Today's
@@ -187,7 +189,7 @@ _NEAR_AXIS = [
 # after the first refusals and includes them by itself once ``prepare`` reads them.
 _OBLIQUE = [
     _buildable(f"{short}-{kind}", preset, **pose)
-    for preset, short in (("tripod-oblique", "tripod"), ("phone-distant-lamp", "distant"))
+    for preset, short in ((OBLIQUE_PRESET, "tripod"), (DISTANT_LAMP_PRESET, "distant"))
     for kind, pose in (
         ("nominal", {}),
         ("posed", {"light_offset_mm": (-4.0, 3.0), "light_rotation_deg": (2.0, 0.0), "camera_offset_mm": (5.0, -2.0),
@@ -198,8 +200,8 @@ _OBLIQUE = [
 ]
 # cd-default, the reference geometry (coaxial: not buildable), and `full`'s lamp beside the lens.
 _REFERENCE = [
-    _buildable("cd-nominal", "cd-default"),
-    _buildable("cd-lamp-beside", "cd-default", light_offset_mm=(12.0, 0.0), lobe_sigma=0.002),
+    _buildable("cd-nominal", DEFAULT_PRESET),
+    _buildable("cd-lamp-beside", DEFAULT_PRESET, light_offset_mm=(12.0, 0.0), lobe_sigma=0.002),
 ]
 CUBE_SETS["buildable"] = _NEAR_AXIS + _OBLIQUE + _REFERENCE
 # A few buildable geometries at a tenth of the work: the pipeline's end-to-end check (tests, pilots).

@@ -61,7 +61,7 @@ def _illuminant(k: float) -> NDArray[np.float64]:
 def _srgb_cmfs() -> NDArray[np.float64]:
     """(81, 3) the colour-matching functions of linear sRGB's primaries."""
     xyz = colour.spd_to_xyz(np.eye(WAVELENGTHS_NM.size))
-    return colour.xyz_to_working_rgb(xyz, "Linear Rec.709")
+    return colour.xyz_to_working_rgb(xyz, colour.LINEAR_REC709)
 
 
 def pipeline_for(camera: CameraProfile, style: InCameraStyle) -> CameraPipeline:

@@ -24,8 +24,7 @@ from numpy.typing import NDArray
 
 from .camera_pipeline import CameraPipeline
 from ..errors import CDSpectraError
-from ..readout.readout import FEATURE_LAMBDA_NM, N_FEATURES
-from ..spectra.grid import WAVELENGTHS_NM
+from ..spectra.grid import FEATURE_LAMBDA_NM, N_FEATURES, WAVELENGTHS_NM
 from ..user_folders import ENV_DIR, calibration_dir, set_default_directory
 
 GAIN_LIMITS = (0.2, 5.0)

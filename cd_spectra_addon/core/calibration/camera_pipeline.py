@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CDSpectraError
-from ..photo.srgb import srgb_decode, srgb_encode
+from ..numerics.least_squares import levenberg_marquardt
+from ..photo.srgb import srgb_decode, srgb_encode, srgb_encode_slope
 
 __all__ = ["CameraPipeline", "fit_pipeline", "CURVE_KNOTS"]
 
@@ -40,6 +41,8 @@ MAX_FIT_PIXELS = 8000
 # 0.002 / 0.0005; 0.1 was worse (0.040, 0.027).
 SMOOTHNESS = 0.005
 MIN_FIT_PIXELS = 200
+FIT_ITERATIONS = 100  # Levenberg–Marquardt iterations at most (the fit usually stops far sooner)
+FIT_TOLERANCE = 1e-10  # ... or once an iteration improves the cost by less than this share
 
 
 @dataclass(frozen=True)
@@ -140,7 +143,7 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
     def jacobian(x: NDArray[np.float64]) -> NDArray[np.float64]:
         display, clipped, _, seg, frac, out = parts(x)
         slope = (out[seg + 1] - out[seg]) / steps[seg]
-        dcode = np.where(display <= 0.0031308, 12.92, (1.055 / 2.4) * np.power(np.maximum(display, 1e-12), 1 / 2.4 - 1))
+        dcode = srgb_encode_slope(display)
         gain = np.where(clipped, 0.0, slope * dcode) * sw  # (N, 3)
         jac = np.zeros((3 * n + k - 2, 9 + k - 1))
         for c in range(3):
@@ -154,42 +157,5 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
             jac[3 * n + j, 10 + j] = penalty
         return jac
 
-    x = _levenberg_marquardt(residual, jacobian, x0)
+    x, _, _ = levenberg_marquardt(residual, x0, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
     return CameraPipeline(x[:9].reshape(3, 3), knots, _curve(x[9:]))
-
-
-def _levenberg_marquardt(residual: Any, jacobian: Any, x0: NDArray[np.float64], iterations: int = 100,
-                         tol: float = 1e-10) -> NDArray[np.float64]:
-    """Minimise ||residual(x)||² (numpy only: scipy is not bundled with the Blender extension).
-
-    Marquardt's scaling (damping ∝ diag JᵀJ) makes the step independent of the parameters'
-    units (matrix entries vs log curve increments)."""
-    x = np.asarray(x0, np.float64).copy()
-    r = residual(x)
-    cost = float(r @ r)
-    damping = 1e-3
-    for _ in range(iterations):
-        jac = jacobian(x)
-        jtj = jac.T @ jac
-        grad = jac.T @ r
-        diag = np.maximum(np.diag(jtj), 1e-12)
-        while True:
-            try:
-                step = np.linalg.solve(jtj + damping * np.diag(diag), -grad)
-            except np.linalg.LinAlgError:
-                step = None
-            if step is not None:
-                trial = x + step
-                r_new = residual(trial)
-                new_cost = float(r_new @ r_new)
-                if np.isfinite(new_cost) and new_cost < cost:
-                    break
-            damping *= 10.0
-            if damping > 1e12:
-                return x
-        improvement = cost - new_cost
-        x, r, cost = trial, r_new, new_cost
-        damping = max(damping / 10.0, 1e-12)
-        if improvement <= tol * max(cost, 1e-300):
-            break
-    return x

@@ -9,9 +9,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import DEFAULT_PRESET
+from ..spectra.colour import DEFAULT_WORKING_SPACE
 from ..spectra.grid import WAVELENGTHS_NM
 
-__all__ = ["DiscFit", "Estimate"]
+__all__ = ["DiscFit", "Estimate", "METHOD_MODEL", "METHOD_PRIOR", "METHOD_PHYSICS", "ESTIMATE_METHODS"]
+
+# How an estimate may be solved (estimate_photo's ``method``): the product, and the two
+# baselines the benchmarks compare it with.
+METHOD_MODEL = "model"  # physics + prior + network: the product
+METHOD_PRIOR = "prior"  # physics under the Gaussian prior only
+METHOD_PHYSICS = "physics"  # smoothness-regularised physics only
+ESTIMATE_METHODS = (METHOD_MODEL, METHOD_PRIOR, METHOD_PHYSICS)
 
 
 @dataclass(frozen=True)
@@ -56,7 +64,7 @@ class Estimate:
     camera: str = ""
     calibration: str | None = None
     model_version: str = ""
-    working_space: str = "Linear Rec.709"
+    working_space: str = DEFAULT_WORKING_SPACE
     extra: dict[str, Any] = field(default_factory=dict)
     wavelength_nm: NDArray[np.float64] = field(default_factory=lambda: WAVELENGTHS_NM.copy())
 

@@ -1,4 +1,8 @@
-"""Small nonlinear least-squares tools for the pose fits (numpy only: no scipy in the add-on)."""
+"""Small nonlinear least-squares tools (numpy only: no scipy in the add-on).
+
+:func:`levenberg_marquardt` is the one damped Gauss–Newton solver of the core: the pose fits
+give it finite-difference steps, the camera pipeline's fit an analytic Jacobian.
+"""
 
 from __future__ import annotations
 
@@ -9,17 +13,28 @@ from numpy.typing import NDArray
 
 __all__ = ["levenberg_marquardt", "cauchy"]
 
+Vector = NDArray[np.float64]
 
-def levenberg_marquardt(residuals, x0: NDArray[np.float64], steps: NDArray[np.float64], max_iter: int = 30,
-                        jacobian: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None,
-                        tol: float = 1e-5) -> tuple[NDArray[np.float64], float, int]:
-    """Minimise Σ r(x)² with the given ``jacobian`` or a forward-difference one (``steps``);
-    returns (x, cost, evaluations).
 
-    ``residuals`` must return a vector of fixed length and order whatever x is (each entry the
-    same pixel or term), else the Jacobian is noise. Stops when a step improves the cost by less
-    than ``tol`` (relative) or no step improves it."""
-    x = x0.copy()
+def levenberg_marquardt(residuals: Callable[[Vector], Vector], x0: Vector, steps: Vector | None = None,
+                        max_iter: int = 30, *, jacobian: Callable[[Vector], NDArray[np.float64]] | None = None,
+                        tol: float = 1e-5) -> tuple[Vector, float, int]:
+    """Minimise Σ r(x)²; returns (x, cost, residual evaluations).
+
+    The Jacobian is ``jacobian(x)`` where given, else forward differences with ``steps`` (one
+    per parameter). ``residuals`` must then return a vector of fixed length and order whatever
+    x is (each entry the same pixel or term), else the Jacobian is noise.
+
+    Each iteration solves (JᵀJ + λ·(diag JᵀJ + 1e-9))·δ = −Jᵀr. Marquardt's scaling by diag JᵀJ
+    makes the step independent of the parameters' units. λ starts at 1e-2. An improving step
+    is taken and λ divided by 3 (down to 1e-6). A worse one (NaN included) multiplies λ by 4,
+    and a singular system by 10, up to 8 tries per iteration. The fit stops after
+    ``max_iter`` iterations, when no try improves, or when the relative improvement of the
+    cost falls below ``tol``.
+    """
+    if (jacobian is None) == (steps is None):
+        raise ValueError("levenberg_marquardt needs either finite-difference steps or a jacobian")
+    x = np.array(x0, copy=True)
     r = residuals(x)
     cost = float(r @ r)
     evals = 1
@@ -27,7 +42,6 @@ def levenberg_marquardt(residuals, x0: NDArray[np.float64], steps: NDArray[np.fl
     for _ in range(max_iter):
         if jacobian is not None:
             jac = jacobian(x)
-            evals += 1
         else:
             jac = np.empty((r.size, x.size))
             for k in range(x.size):

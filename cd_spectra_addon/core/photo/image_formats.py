@@ -22,7 +22,7 @@ import os
 import struct
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -36,7 +36,7 @@ from .jpeg_chroma import box_decode, scaled_decode_is_faithful
 __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
     "MAX_FILE_BYTES", "MAX_PIXELS", "RAW_EXTENSIONS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
-    "pillow_header", "pillow_pixels", "exif_from_pillow", "heif_header", "heif_pixels", "tiff_header", "exr_header", "exr_pixels",
+    "pillow_header", "pillow_pixels", "exif_from_pillow", "exif_info", "exif_number", "exif_text", "heif_header", "heif_pixels", "tiff_header", "exr_header", "exr_pixels",
     "array_pixels",
 ]
 
@@ -353,7 +353,11 @@ def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int
 # --- EXIF ------------------------------------------------------------------------------------
 
 
-def _number(value: Any) -> float | None:
+def exif_number(value: Any) -> float | None:
+    """A positive finite number from an EXIF / TIFF value (int, rational, or a tuple holding
+    one, as TIFF readers give count-1 arrays), else None: damaged metadata is no error."""
+    if isinstance(value, tuple):
+        value = value[0] if value else None
     try:
         x = float(value)
     except (TypeError, ValueError, ZeroDivisionError, OverflowError):
@@ -361,7 +365,8 @@ def _number(value: Any) -> float | None:
     return x if math.isfinite(x) and x > 0 else None
 
 
-def _text(value: Any) -> str | None:
+def exif_text(value: Any) -> str | None:
+    """An EXIF / TIFF ASCII value as text without NULs and padding (bytes decoded as UTF-8), else None."""
     if isinstance(value, bytes):
         value = value.decode("utf-8", "replace")
     if not isinstance(value, str):
@@ -386,24 +391,34 @@ def exif_from_pillow(im: Any) -> ExifInfo:
 def exif_from_tags(exif: Any, container_orientation: bool = False) -> ExifInfo:
     """ExifInfo from a Pillow ``Image.Exif``. ``container_orientation``: the container already
     rotated the pixels (HEIF's irot/imir, applied by libheif), so EXIF orientation is ignored."""
-    sub = exif.get_ifd(0x8769)
     orientation = exif.get(0x0112)
     orientation = orientation if isinstance(orientation, int) and 1 <= orientation <= 8 else None
     if container_orientation:
         orientation = None
-    focal_plane = _number(sub.get(0xA20E))
+    return exif_info(exif, exif.get_ifd(0x8769), orientation)
+
+
+def exif_info(ifd0: Mapping[int, Any], sub: Mapping[int, Any], orientation: int | None,
+              focal_fallback: float | None = None, rendering: bool = True) -> ExifInfo:
+    """ExifInfo from the tags of IFD0 (make, model, software) and of the Exif sub-IFD (focal
+    length, focal-plane resolution, colour space, white balance); a raw file's TIFF reader gives
+    one dict for both. ``focal_fallback`` stands in for a missing FocalLength. ``rendering``:
+    read ColorSpace and WhiteBalance, which describe how the camera rendered the file. They
+    are read for JPEG/HEIC/TIFF, but not for a raw file's photosites, which no camera rendering
+    touched."""
+    focal_plane = exif_number(sub.get(0xA20E))
     unit = sub.get(0xA210, 2)  # EXIF default: inches
     per_mm = _UNIT_PER_MM.get(unit) if isinstance(unit, int) else None
     return ExifInfo(
-        focal_length_mm=_number(sub.get(0x920A)),
-        focal_length_35mm=_number(sub.get(0xA405)),
+        focal_length_mm=exif_number(sub.get(0x920A)) or focal_fallback,
+        focal_length_35mm=exif_number(sub.get(0xA405)),
         focal_plane_px_per_mm=focal_plane * per_mm if focal_plane and per_mm else None,
-        make=_text(exif.get(0x010F)),
-        model=_text(exif.get(0x0110)),
+        make=exif_text(ifd0.get(0x010F)),
+        model=exif_text(ifd0.get(0x0110)),
         orientation=orientation,
-        software=_text(exif.get(0x0131)),
-        colour_space=_small_int(sub.get(0xA001)),
-        white_balance=_small_int(sub.get(0xA403)),
+        software=exif_text(ifd0.get(0x0131)),
+        colour_space=_small_int(sub.get(0xA001)) if rendering else None,
+        white_balance=_small_int(sub.get(0xA403)) if rendering else None,
     )
 
 

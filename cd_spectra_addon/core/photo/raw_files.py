@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PhotoError
-from .image_formats import RAW_EXTENSIONS, ExifInfo
+from .image_formats import RAW_EXTENSIONS, ExifInfo, exif_info, exif_number
 from .tiff_tags import find_tiff_tags
 
 __all__ = ["RAW_EXTENSIONS", "RawPhoto", "read_raw", "is_raw_path", "SATURATION_FRACTION"]
@@ -38,7 +38,6 @@ __all__ = ["RAW_EXTENSIONS", "RawPhoto", "read_raw", "is_raw_path", "SATURATION_
 SATURATION_FRACTION = 0.98  # of (white − black): the 8-bit loader's 250/255 margin, for raw
 HEAD_BYTES = 4 << 20  # embedded TIFF metadata (CR3, RAF) is looked for in the first 4 MB
 LINEAR_RAW = 34892
-_UNIT_PER_MM = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0, 5: 1000.0}
 _FLIP_TO_ORIENTATION = {0: 1, 3: 3, 5: 8, 6: 6}
 
 
@@ -59,35 +58,6 @@ class RawPhoto:
 
 def is_raw_path(path: str | Path) -> bool:
     return Path(path).suffix.lower() in RAW_EXTENSIONS
-
-
-def _number(value: Any) -> float | None:
-    if isinstance(value, tuple):
-        value = value[0] if value else None
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        return None
-    return x if np.isfinite(x) and x > 0 else None
-
-
-def _text(value: Any) -> str | None:
-    return value.replace("\x00", "").strip() or None if isinstance(value, str) else None
-
-
-def exif_from_tags(tags: dict[int, Any], focal_fallback: float | None, orientation: int) -> ExifInfo:
-    plane = _number(tags.get(0xA20E))
-    unit = tags.get(0xA210, 2)
-    per_mm = _UNIT_PER_MM.get(unit) if isinstance(unit, int) else None
-    return ExifInfo(
-        focal_length_mm=_number(tags.get(0x920A)) or focal_fallback,
-        focal_length_35mm=_number(tags.get(0xA405)),
-        focal_plane_px_per_mm=plane * per_mm if plane and per_mm else None,
-        make=_text(tags.get(0x010F)),
-        model=_text(tags.get(0x0110)),
-        orientation=orientation,
-        software=_text(tags.get(0x0131)),
-    )
 
 
 def _channel_map(color_desc: bytes) -> list[int]:
@@ -170,7 +140,7 @@ def read_raw(path: str | Path, data: bytes | None = None) -> RawPhoto:
             else:
                 rgb, saturated, binning, black, white = _bin_mosaic(raw, channel_of)
             sizes = raw.sizes
-            focal = _number(getattr(raw.other, "focal_length", None))
+            focal = exif_number(getattr(raw.other, "focal_length", None))
             orientation = _FLIP_TO_ORIENTATION.get(int(sizes.flip), 1)
             original = (int(sizes.width), int(sizes.height))
     except PhotoError as exc:
@@ -185,6 +155,6 @@ def read_raw(path: str | Path, data: bytes | None = None) -> RawPhoto:
         raise PhotoError(f"{name}: LibRaw cannot read this raw file; it is damaged, truncated or a camera "
                          f"LibRaw {'.'.join(map(str, rawpy.libraw_version))} does not know "
                          f"({type(exc).__name__}: {detail})") from None
-    exif = exif_from_tags(tags, focal, orientation)
+    exif = exif_info(tags, tags, orientation, focal_fallback=focal, rendering=False)
     return RawPhoto(rgb=rgb, saturated=saturated, binning=binning, original_size=original, exif=exif,
-                    linear_dng=bool(linear), software=_text(tags.get(0x0131)), black=black, white=white)
+                    linear_dng=bool(linear), software=exif.software, black=black, white=white)

@@ -23,12 +23,14 @@ from numpy.typing import NDArray
 from ..scene.capture import Light, Pose, Preset, Scene
 from ..scene.diffraction import pixel_diffraction
 from ..scene.relative_pose import near_axis
+from ..spectra.grid import FEATURE_STEP_NM, MIN_VISIBILITY, VISIBLE_NM
 
 REACH_SIDE = 256  # image side the reach is computed at (a pixel ≈ 0.5 mm on the disc)
 REACH_STEP_MM = 2.5
 REACH_MAX_MM = 120.0
 REACH_COVERAGE = 0.95  # share of 400–700 nm (5 nm bins) that must land on the tracks
-MIN_VISIBILITY = 0.3  # as the readout
+# 400–700 nm in the readout's 5 nm steps (edges on whole multiples of 5 nm from 400 nm): 60 bins.
+_VISIBLE_BINS = round((VISIBLE_NM[1] - VISIBLE_NM[0]) / FEATURE_STEP_NM)
 
 __all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "lamp_advice", "missing_nm",
            "capture_angles", "oblique_advice", "coverage_advice", "advice_for_photo"]
@@ -37,18 +39,18 @@ __all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "l
 def _covered_bins(scene: Scene) -> NDArray[np.int64]:
     px = pixel_diffraction(scene)
     lam = px.lambda1_nm[px.on_tracks & (px.visibility >= MIN_VISIBILITY)]
-    bins = np.floor((lam - 400.0) / 5.0).astype(np.int64)
-    return np.unique(bins[(bins >= 0) & (bins < 60)])
+    bins = np.floor((lam - VISIBLE_NM[0]) / FEATURE_STEP_NM).astype(np.int64)
+    return np.unique(bins[(bins >= 0) & (bins < _VISIBLE_BINS)])
 
 
 def coverage_400_700(scene: Scene) -> float:
     """Share of the 5 nm bins of 400–700 nm that some visible first-order pixel on the tracks shows."""
-    return float(_covered_bins(scene).size / 60.0)
+    return float(_covered_bins(scene).size / float(_VISIBLE_BINS))
 
 
 def missing_nm(scene: Scene) -> list[tuple[int, int]]:
     """The stretches of 400–700 nm (nm, 5 nm bins) no visible first-order pixel on the tracks shows."""
-    have = np.zeros(60, dtype=bool)
+    have = np.zeros(_VISIBLE_BINS, dtype=bool)
     have[_covered_bins(scene)] = True
     out: list[tuple[int, int]] = []
     start = None
@@ -56,7 +58,7 @@ def missing_nm(scene: Scene) -> list[tuple[int, int]]:
         if not ok and start is None:
             start = i
         elif ok and start is not None:
-            out.append((400 + 5 * start, 400 + 5 * i))
+            out.append((int(VISIBLE_NM[0] + FEATURE_STEP_NM * start), int(VISIBLE_NM[0] + FEATURE_STEP_NM * i)))
             start = None
     return out
 

@@ -22,7 +22,9 @@ import numpy as np
 
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset, preset_from_dict
 from ..errors import CDSpectraError
-from .setups import VISIBLE_NM, SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
+from ..validation import check_number
+from .setups import NEAR_AXIS, OBLIQUE, SETUP_KINDS, SetUp, SetUpReport, analyse, angular_sigma, setup_from_dict
+from ..spectra.grid import VISIBLE_NM
 
 __all__ = ["PlanError", "Equipment", "Plan", "PHONE", "CAMERA", "plan_capture", "setup_summary"]
 
@@ -70,7 +72,7 @@ class Equipment:
 class Plan:
     """Where to put things, what it gives, and the preset that renders it."""
 
-    family: str  # "near-axis" or "oblique"
+    family: str  # NEAR_AXIS or OBLIQUE
     lamp_angle_deg: float  # from the disc axis; positive: on the far side from the camera
     lamp_distance_mm: float
     lamp_offset_mm: float  # near-axis: source beside the lens
@@ -85,7 +87,7 @@ class Plan:
         """Plain steps with distances and angles."""
         cam = self.setup.preset.camera.nominal_position_mm
         lamp = self.setup.preset.light.position_mm
-        if self.family == "near-axis":
+        if self.family == NEAR_AXIS:
             return [
                 f"Lay the CD flat, label down. Hold the phone level {self.camera_distance_mm:.0f} mm above the disc "
                 "centre, lens straight over the centre hole.",
@@ -124,20 +126,14 @@ class Plan:
 
 
 def _check(equipment: Equipment) -> None:
-    def positive(name: str, value: Any, low: float = 0.0) -> None:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > low
-        if not ok:
-            raise PlanError(f"{name} must be a number > {low:g}, not {value!r}")
-
-    positive("lamp distance (mm)", equipment.lamp_distance_mm)
-    positive("lamp size (mm)", equipment.lamp_size_mm)
-    positive("focal length (mm)", equipment.focal_mm)
-    positive("sensor width (mm)", equipment.sensor_width_mm)
-    positive("lamp housing (mm)", equipment.lamp_housing_mm)
+    for name, value in (("lamp distance (mm)", equipment.lamp_distance_mm), ("lamp size (mm)", equipment.lamp_size_mm),
+                        ("focal length (mm)", equipment.focal_mm), ("sensor width (mm)", equipment.sensor_width_mm),
+                        ("lamp housing (mm)", equipment.lamp_housing_mm)):
+        check_number(name, value, above=0.0, error=PlanError)
     if equipment.f_number is not None:
-        positive("f-number", equipment.f_number, 0.5)
+        check_number("f-number", equipment.f_number, above=0.5, error=PlanError)
     if equipment.min_focus_mm is not None:
-        positive("closest focus (mm)", equipment.min_focus_mm)
+        check_number("closest focus (mm)", equipment.min_focus_mm, above=0.0, error=PlanError)
     if equipment.lamp_distance_mm < 100.0:
         raise PlanError(f"a lamp {equipment.lamp_distance_mm:g} mm from the disc is too close: its first order "
                         "cannot reach the data area and the lamp would hang over the disc; put it ≥ 150 mm away")
@@ -255,19 +251,19 @@ def _candidates(equipment: Equipment) -> list[tuple[str, float, float, float, fl
     near = max(_fit_distance(equipment), equipment.min_focus_mm or kind.min_focus_mm)
     out: list[tuple[str, float, float, float, float]] = []
     if equipment.phone and equipment.lamp_distance_mm >= near:
-        out += [("near-axis", 0.0, off, 0.0, equipment.lamp_distance_mm) for off in _NEAR_AXIS_OFFSETS_MM]
+        out += [(NEAR_AXIS, 0.0, off, 0.0, equipment.lamp_distance_mm) for off in _NEAR_AXIS_OFFSETS_MM]
     far = max(near * 3.0, near + 100.0)
     distances = np.geomspace(near, far, 14)
     for beta in np.arange(0.0, 62.5, 2.5):
         for dc in distances:
             for alpha in np.arange(-75.0, 77.5, 2.5):
-                out.append(("oblique", float(alpha), 0.0, float(beta), float(dc)))
+                out.append((OBLIQUE, float(alpha), 0.0, float(beta), float(dc)))
     return out
 
 
 def _positions(cand: tuple[str, float, float, float, float], lamp_distance: float) -> tuple[np.ndarray, np.ndarray]:
     family, alpha, offset, beta, dc = cand
-    if family == "near-axis":  # the on-axis camera's image x is world x
+    if family == NEAR_AXIS:  # the on-axis camera's image x is world x
         return np.array([0.0, 0.0, dc]), np.array([offset, 0.0, dc])
     b, a = math.radians(beta), math.radians(alpha)
     camera = np.array([-dc * math.sin(b), 0.0, dc * math.cos(b)])
@@ -276,7 +272,7 @@ def _positions(cand: tuple[str, float, float, float, float], lamp_distance: floa
 
 
 def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int = 60,
-                 families: tuple[str, ...] = ("near-axis", "oblique")) -> Plan:
+                 families: tuple[str, ...] = SETUP_KINDS) -> Plan:
     """The best buildable capture for this equipment, or PlanError saying what to change.
 
     Candidates are ranked by cheap geometry first (one side covers 400–700 nm, glint off the
@@ -305,7 +301,7 @@ def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int 
         camera, lamp = cam_arr[i], lamp_arr[i]
         sigma = math.hypot(sigma_src, angular_sigma(_aperture_mm(equipment), float(np.linalg.norm(camera))))
         preset = _preset(equipment, name, tuple(camera.tolist()), tuple(lamp.tolist()), sigma)
-        setup = _setup(equipment, preset, cand[0], housing=cand[0] == "oblique")
+        setup = _setup(equipment, preset, cand[0], housing=cand[0] == OBLIQUE)
         report = analyse(setup)
         if not report.covers_visible or report.occlusions:
             reasons["blocked"] = reasons.get("blocked", 0) + 1

@@ -29,11 +29,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
+from ..spectra.grid import VISIBLE_NM
 from ..errors import CDSpectraError
 from ..scene.kernel import diffraction_at
+from ..validation import check_number, check_numbers
 
 __all__ = [
-    "VISIBLE_NM",
+    "NEAR_AXIS",
+    "OBLIQUE",
+    "SETUP_KINDS",
     "Box",
     "Emitter",
     "SetUp",
@@ -49,7 +53,10 @@ __all__ = [
     "setup_names",
 ]
 
-VISIBLE_NM = (400.0, 700.0)  # what the set-up must put on the data area
+NEAR_AXIS = "near-axis"  # the kinds of set-up: the source beside the lens, looking straight down
+OBLIQUE = "oblique"  # or lamp and camera on either side, the camera tilted towards the disc
+SETUP_KINDS = (NEAR_AXIS, OBLIQUE)
+
 _SAMPLES_PER_MM = 20  # line sampling; wavelengths are interpolated to ≪ 0.1 mm
 _EPS_MM = 1e-6
 
@@ -149,7 +156,7 @@ class SetUp:
     """A buildable capture: the preset (poses) plus what the forward model does not know."""
 
     preset: Preset
-    kind: str  # "near-axis" or "oblique"
+    kind: str  # NEAR_AXIS or OBLIQUE
     camera_body_mm: tuple[float, float, float]  # width, height, depth behind the lens front
     lens_offset_mm: tuple[float, float]  # lens centre from the body's front-face centre (image x, y)
     aperture_mm: float  # entrance pupil diameter (focal length / f-number)
@@ -490,16 +497,12 @@ def _emitter_reaches(emitter: Emitter, hole: NDArray[np.float64], points: NDArra
 
 
 def _triple(value: Any, where: str) -> tuple[float, float, float]:
-    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(
-            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
-        raise ValueError(f"setup.{where} needs 3 finite numbers, not {value!r}")
-    return (float(value[0]), float(value[1]), float(value[2]))
+    x, y, z = check_numbers(f"setup.{where}", value, 3)
+    return (x, y, z)
 
 
 def _positive(value: Any, where: str) -> float:
-    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value > 0):
-        raise ValueError(f"setup.{where} must be a number > 0, not {value!r}")
-    return float(value)
+    return check_number(f"setup.{where}", value, above=0.0)
 
 
 def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
@@ -507,14 +510,11 @@ def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
     if not isinstance(data, dict):
         raise ValueError("setup must be an object")
     kind = data.get("kind")
-    if kind not in ("near-axis", "oblique"):
-        raise ValueError(f"setup.kind must be 'near-axis' or 'oblique', not {kind!r}")
-    body = _triple(data.get("camera_body_mm"), "camera_body_mm")
-    for i, v in enumerate(body):
-        _positive(v, f"camera_body_mm[{i}]")
-    offset = data.get("lens_offset_mm", [0.0, 0.0])
-    if not isinstance(offset, (list, tuple)) or len(offset) != 2:
-        raise ValueError("setup.lens_offset_mm needs 2 numbers")
+    if kind not in SETUP_KINDS:
+        raise ValueError(f"setup.kind must be {' or '.join(map(repr, SETUP_KINDS))}, not {kind!r}")
+    x, y, z = check_numbers("setup.camera_body_mm", data.get("camera_body_mm"), 3, above=0.0)
+    body = (x, y, z)
+    offset = check_numbers("setup.lens_offset_mm", data.get("lens_offset_mm", [0.0, 0.0]), 2)
     bodies = []
     for i, b in enumerate(data.get("bodies", [])):
         size = _triple(b.get("size_mm"), f"bodies[{i}].size_mm")
@@ -529,7 +529,7 @@ def setup_from_dict(preset: Preset, data: dict[str, Any]) -> SetUp:
                           _triple(em.get("facing", [0, 0, -1]), "emitter.facing"))
     return SetUp(
         preset=preset, kind=kind, camera_body_mm=body,
-        lens_offset_mm=(float(offset[0]), float(offset[1])),
+        lens_offset_mm=(offset[0], offset[1]),
         aperture_mm=_positive(data.get("aperture_mm"), "aperture_mm"),
         source_size_mm=_positive(data.get("source_size_mm"), "source_size_mm"),
         bodies=tuple(bodies), emitter=emitter, steps=tuple(str(x) for x in data.get("steps", [])),

@@ -148,8 +148,7 @@ class _Problem:
             return np.concatenate([self.objective.jacobian(full(y), FREE), prior_rows])
 
         before = self.evaluations
-        y, cost, _ = levenberg_marquardt(residuals, x0[FREE], np.full(FREE.size, 1e-3), max_iter=iterations,
-                                         jacobian=jacobian, tol=tol)
+        y, cost, _ = levenberg_marquardt(residuals, x0[FREE], max_iter=iterations, jacobian=jacobian, tol=tol)
         if _DEBUG:
             print(f"  LM {self.evaluations - before} evals, cost {cost:.5f}")
         return full(y), cost

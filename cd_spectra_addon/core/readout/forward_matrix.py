@@ -16,8 +16,8 @@ from ..scene import grating
 from ..spectra.cameras import CameraProfile
 from ..scene.capture import Scene
 from ..scene.diffraction import pixel_diffraction
-from .readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES, Readout
-from ..spectra.grid import WAVELENGTHS_NM
+from .readout import Readout
+from ..spectra.grid import FEATURE_STEP_NM, N_FEATURES, WAVELENGTHS_NM, feature_bins
 
 SUB_BINS = 10  # λ₁ sub-bins per feature bin: the response shifts with λ₁ inside a bin
 FOOTPRINT = 3  # sub-samples per pixel axis: a pixel integrates several nm of λ₁
@@ -40,8 +40,7 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     live = np.flatnonzero(w > 0)
     if live.size == 0:
         return response
-    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
-    sub = np.floor((px.lambda1_nm[live] - lam0) / (FEATURE_STEP_NM / SUB_BINS)).astype(np.int64)
+    sub = feature_bins(px.lambda1_nm[live], FEATURE_STEP_NM / SUB_BINS)
     n_sub = N_FEATURES * SUB_BINS
     sub = np.clip(sub, 0, n_sub - 1)
     sub_weight = np.bincount(sub, weights=w[live], minlength=n_sub)

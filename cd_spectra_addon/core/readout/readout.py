@@ -16,17 +16,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..numerics.special import norm_ppf
 from ..scene.capture import Scene
 from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+# The λ₁ bins live with the wavelength grids (planning bins the same way); re-exported here as
+# the readout's own: FEATURE_STEP_NM is re-exported for the pose fit, which imports it from here.
+from ..spectra.grid import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, MIN_VISIBILITY, N_FEATURES, feature_bins
 
-FEATURE_STEP_NM = 5.0
-FEATURE_LAMBDA_NM: NDArray[np.float64] = np.arange(350.0, 870.0 + 0.5, FEATURE_STEP_NM)  # 105 bins
-N_FEATURES = FEATURE_LAMBDA_NM.size
-MIN_VISIBILITY = 0.3
 OUTLIER_MADS = 5.0
 MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
 
-__all__ = ["FEATURE_LAMBDA_NM", "N_FEATURES", "Readout", "extract_readout"]
+__all__ = ["FEATURE_LAMBDA_NM", "FEATURE_STEP_NM", "MIN_VISIBILITY", "N_FEATURES", "Readout", "extract_readout"]
 
 
 @dataclass(frozen=True)
@@ -63,34 +63,6 @@ def _bin_median(bins: NDArray[np.int64], values: NDArray[np.float64], n_bins: in
     return out
 
 
-def _norm_ppf(p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverse standard normal CDF (Acklam's rational approximation, |error| < 1.2e-9)."""
-    a = (-3.969683028665376e01, 2.209460984245205e02, -2.759285104469687e02, 1.383577518672690e02,
-         -3.066479806614716e01, 2.506628277459239e00)
-    b = (-5.447609879822406e01, 1.615858368580409e02, -1.556989798598866e02, 6.680131188771972e01,
-         -1.328068155288572e01)
-    c = (-7.784894002430293e-03, -3.223964580411365e-01, -2.400758277161838e00, -2.549732539343734e00,
-         4.374664141464968e00, 2.938163982698783e00)
-    d = (7.784695709041462e-03, 3.224671290700398e-01, 2.445134137142996e00, 3.754408661907416e00)
-    p = np.clip(np.asarray(p, dtype=np.float64), 1e-12, 1 - 1e-12)
-    out = np.empty_like(p)
-    low, high = p < 0.02425, p > 1 - 0.02425
-    mid = ~(low | high)
-    q = np.sqrt(-2 * np.log(np.where(low, p, 0.5)))
-    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
-    den = (((d[0] * q + d[1]) * q + d[2]) * q + d[3]) * q + 1
-    out[low] = (num / den)[low]
-    q = np.sqrt(-2 * np.log(np.where(high, 1 - p, 0.5)))
-    num = ((((c[0] * q + c[1]) * q + c[2]) * q + c[3]) * q + c[4]) * q + c[5]
-    out[high] = -(num / den)[high]
-    q = p - 0.5
-    r = q * q
-    num = (((((a[0] * r + a[1]) * r + a[2]) * r + a[3]) * r + a[4]) * r + a[5]) * q
-    den = ((((b[0] * r + b[1]) * r + b[2]) * r + b[3]) * r + b[4]) * r + 1
-    out[mid] = (num / den)[mid]
-    return out
-
-
 def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[np.int64],
             weight: NDArray[np.float64], vis: NDArray[np.float64]) -> NDArray[np.float64]:
     """Undo the bias of noise clipped at zero (integer encodings) in dark bins.
@@ -108,7 +80,7 @@ def _unclip(values: NDArray[np.float64], flat: NDArray[np.float64], b: NDArray[n
         fix = (p0 > 0.005) & (p0 < 0.995) & (n >= 8) & (mean > 0)
         if not np.any(fix):
             continue
-        z = -_norm_ppf(p0[fix])
+        z = -norm_ppf(p0[fix])
         phi = np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
         big_phi = 1.0 - p0[fix]
         sigma = mean[fix] / (z * big_phi + phi)
@@ -131,8 +103,7 @@ def extract_readout(
         raise ValueError("scene image size does not match the photo")
     if pixels is None:
         pixels = pixel_diffraction(scene)
-    lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
-    b = np.floor((pixels.lambda1_nm - lam0) / FEATURE_STEP_NM).astype(np.int64)
+    b = feature_bins(pixels.lambda1_nm)
     keep = pixels.on_tracks & (pixels.visibility >= min_visibility) & (b >= 0) & (b < N_FEATURES)
     sel = np.flatnonzero(keep)
     px = PixelDiffraction(**{k: v[sel] for k, v in pixels.__dict__.items()})

@@ -22,10 +22,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import CDSpectraError
+from ..validation import check_number, check_numbers
 from .kernel import camera_rays, intersect_plane, project, rotation_xy
 
 PRESET_DIR = Path(__file__).resolve().parents[2] / "presets"
 DEFAULT_PRESET = "cd-default"  # the capture a photo is read as unless the user picks another preset
+# The shipped presets a person can build (their files carry a "setup" section; designed by
+# tools/design_setups.py), and the two reference geometries the training renders besides.
+NEAR_AXIS_PRESET = "phone-near-axis"
+OBLIQUE_PRESET = "tripod-oblique"
+DISTANT_LAMP_PRESET = "phone-distant-lamp"
+SETUP_PRESETS = (NEAR_AXIS_PRESET, OBLIQUE_PRESET, DISTANT_LAMP_PRESET)
+FAR_LIGHT_PRESET = "cd-far-light"
+PAPER_PRESET = "paper"
 
 __all__ = [
     "Disc",
@@ -36,6 +45,12 @@ __all__ = [
     "Scene",
     "PRESET_DIR",
     "DEFAULT_PRESET",
+    "NEAR_AXIS_PRESET",
+    "OBLIQUE_PRESET",
+    "DISTANT_LAMP_PRESET",
+    "SETUP_PRESETS",
+    "FAR_LIGHT_PRESET",
+    "PAPER_PRESET",
     "preset_names",
     "load_preset",
     "preset_from_dict",
@@ -336,7 +351,7 @@ def _from_dict(data: dict[str, Any]) -> Preset:
         cam_data["image_size_px"] = tuple(int(v) for v in cam_data["image_size_px"])
     for key in ("position_mm", "look_at_mm", "up"):
         if cam_data.get(key) is not None:
-            cam_data[key] = _triple(f"camera.{key}", cam_data[key])
+            cam_data[key] = check_numbers(f"camera.{key}", cam_data[key], 3, names="[x, y, z]")
     if cam_data.get("position_mm") is not None:
         aim = cam_data.get("look_at_mm", _ORIGIN_MM)
         span = math.dist(cam_data["position_mm"], aim)
@@ -365,56 +380,36 @@ def _from_dict(data: dict[str, Any]) -> Preset:
     return preset
 
 
-def _triple(where: str, value: Any) -> tuple[float, float, float]:
-    """Three finite numbers (a point or direction in mm), else ValueError naming the field."""
-    if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise ValueError(f"{where} needs 3 numbers [x, y, z], not {value!r}")
-    for i, v in enumerate(value):
-        _number(f"{where}[{i}]", v, -math.inf)
-    return (float(value[0]), float(value[1]), float(value[2]))
-
-
-def _number(where: str, value: Any, low: float, low_open: bool = False, integer: bool = False) -> None:
-    """A finite number ≥ low (> low if ``low_open``), an integer where asked; else ValueError."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    ok = ok and (value > low if low_open else value >= low) and (not integer or float(value).is_integer())
-    if not ok:
-        kind = "a whole number" if integer else "a number"
-        raise ValueError(f"{where} must be {kind} {'>' if low_open else '≥'} {low:g}, not {value!r}")
-
-
 def _validate(preset: Preset) -> None:
     """Refuse a preset file's impossible values here, with the field's name, instead of a NaN
     image, a misleading 'no rainbow found' or a TypeError deep inside the estimate."""
     d, c, light = preset.disc, preset.camera, preset.light
     for name in ("pitch_um", "rim_radius_mm", "grating_r_max_mm"):
-        _number(f"disc.{name}", getattr(d, name), 0.0, low_open=True)
+        check_number(f"disc.{name}", getattr(d, name), above=0.0)
     for name in ("groove_height_um", "hole_radius_mm", "grating_r_min_mm", "diffuse_albedo", "duty"):
-        _number(f"disc.{name}", getattr(d, name), 0.0)
-    _number("disc.medium_index", d.medium_index, 1.0)
-    _number("disc.max_order", d.max_order, 0.0, integer=True)
+        check_number(f"disc.{name}", getattr(d, name), at_least=0.0)
+    check_number("disc.medium_index", d.medium_index, at_least=1.0)
+    check_number("disc.max_order", d.max_order, at_least=0.0, integer=True)
     if d.profile not in ("sinusoidal", "rectangular"):
         raise ValueError(f"disc.profile must be 'sinusoidal' or 'rectangular', not {d.profile!r}")
     if d.duty > 1.0 or d.hole_radius_mm >= d.rim_radius_mm or d.grating_r_min_mm >= d.grating_r_max_mm:
         raise ValueError("disc: need duty ≤ 1, hole_radius_mm < rim_radius_mm and "
                          "grating_r_min_mm < grating_r_max_mm")
     for name in ("distance_mm", "focal_length_mm", "sensor_width_mm"):
-        _number(f"camera.{name}", getattr(c, name), 0.0, low_open=True)
+        check_number(f"camera.{name}", getattr(c, name), above=0.0)
     for i, value in enumerate(c.image_size_px):
-        _number(f"camera.image_size_px[{i}]", value, 1.0, integer=True)
+        check_number(f"camera.image_size_px[{i}]", value, at_least=1.0, integer=True)
     if len(c.image_size_px) != 2 or len(light.position_mm) != 3:
         raise ValueError("camera.image_size_px needs 2 values and light.position_mm 3")
     for i, value in enumerate(light.position_mm):
-        _number(f"light.position_mm[{i}]", value, -math.inf)
+        check_number(f"light.position_mm[{i}]", value)
     if len(preset.disc_tilt_deg) != 2:
         raise ValueError("disc_tilt_deg needs 2 angles [about x, about y]")
     for i, value in enumerate(preset.disc_tilt_deg):
-        _number(f"disc_tilt_deg[{i}]", value, -80.0)
-        if value > 80.0:
-            raise ValueError(f"disc_tilt_deg[{i}] must be between -80 and 80 degrees, not {value!r}")
+        check_number(f"disc_tilt_deg[{i}]", value, at_least=-80.0, at_most=80.0, unit=" degrees")
     _validate_aim(c)
-    _number("light.lobe_sigma", light.lobe_sigma, 0.0, low_open=True)
-    _number("light.intensity", light.intensity, 0.0)
+    check_number("light.lobe_sigma", light.lobe_sigma, above=0.0)
+    check_number("light.intensity", light.intensity, at_least=0.0)
 
 
 def _validate_aim(camera: Camera) -> None:

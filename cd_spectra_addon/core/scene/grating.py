@@ -39,6 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .capture import Disc
+from ..numerics.special import erf
 from .kernel import COS_EPS, diffraction_at
 from ..spectra.grid import WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTH_STEP_NM, hat_integrals
 
@@ -133,18 +134,6 @@ def fresnel_aluminium(wavelength_nm: ArrayLike, cos_theta_in: ArrayLike) -> NDAr
     return f0 + (1.0 - f0) * (1.0 - c) ** 5
 
 
-def _erf(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Vectorised erf without scipy (Blender's Python has none): Numerical Recipes' erfc
-    Chebyshev fit, fractional error < 1.2e-7 — below float32 OSL and far below render noise."""
-    z = np.abs(x)
-    t = 1.0 / (1.0 + 0.5 * z)
-    poly = -z * z - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (
-        -0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (
-            -0.82215223 + t * 0.17087277))))))))
-    erfc = t * np.exp(poly)
-    return np.where(x >= 0, 1.0 - erfc, erfc - 1.0)
-
-
 def hat_gauss_integral(
     mu: ArrayLike,
     s: ArrayLike,
@@ -166,7 +155,7 @@ def hat_gauss_integral(
     def pieces(a: NDArray[np.float64], b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         ga = np.exp(-((a - mu) ** 2) / (2.0 * s * s))
         gb = np.exp(-((b - mu) ** 2) / (2.0 * s * s))
-        i0 = c0 * (_erf((b - mu) / root2s) - _erf((a - mu) / root2s))
+        i0 = c0 * (erf((b - mu) / root2s) - erf((a - mu) / root2s))
         i1 = mu * i0 + s * s * (ga - gb)
         return i0, i1
 

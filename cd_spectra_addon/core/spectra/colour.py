@@ -39,14 +39,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import CDSpectraError
 from .illuminants import C2_ITS90_NM_K, planck_radiance
-from .grid import N_BANDS, WAVELENGTHS_NM
+from .grid import N_BANDS, VISIBLE_NM, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
 
 __all__ = [
     "TABLES_FILE",
     "CCT_MIN_K",
     "CCT_MAX_K",
     "DUV_MAX",
+    "LINEAR_REC709",
+    "LINEAR_REC2020",
+    "ACESCG",
     "WORKING_SPACES",
+    "DEFAULT_WORKING_SPACE",
     "known_working_space",
     "LightColour",
     "spd_to_xyz",
@@ -54,7 +58,10 @@ __all__ = [
     "xyz_to_xy",
     "xy_to_uv1960",
     "xy_to_uv_prime",
+    "uv1960_to_xy",
+    "hat_cmfs",
     "planck_uv1960",
+    "cct_duv_to_uv1960",
     "uv_to_cct_ohno2013",
     "cct_duv",
     "xyz_to_working_rgb",
@@ -72,13 +79,20 @@ CCT_MAX_K = 100000.0
 DUV_MAX = 0.05
 """Beyond these, CCT is not a meaningful description of a light's colour (Ohno 2014, ANSI C78.377)."""
 
-WORKING_SPACES: tuple[str, ...] = ("Linear Rec.709", "Linear Rec.2020", "ACEScg")
+# Blender's working colour spaces, by the names its OCIO config gives them.
+LINEAR_REC709 = "Linear Rec.709"
+LINEAR_REC2020 = "Linear Rec.2020"
+ACESCG = "ACEScg"
+WORKING_SPACES: tuple[str, ...] = (LINEAR_REC709, LINEAR_REC2020, ACESCG)
+DEFAULT_WORKING_SPACE = LINEAR_REC709
+"""Blender 4.x's only working space, and what light colours are given in when a Blender 5 file's
+space is not one of :data:`WORKING_SPACES` (a custom OCIO config)."""
 _SPACE_ALIASES = {
     # Blender's working_space_interop_id values, and the pre-4.0 name of the default space.
-    "lin_rec709_scene": "Linear Rec.709",
-    "Linear": "Linear Rec.709",
-    "lin_rec2020_scene": "Linear Rec.2020",
-    "lin_ap1_scene": "ACEScg",
+    "lin_rec709_scene": LINEAR_REC709,
+    "Linear": LINEAR_REC709,
+    "lin_rec2020_scene": LINEAR_REC2020,
+    "lin_ap1_scene": ACESCG,
 }
 
 _CASCADE_POINTS = 21  # locus points per refinement level
@@ -216,6 +230,24 @@ def xy_to_uv_prime(xy: ArrayLike) -> NDArray[np.float64]:
     return np.stack([4.0 * arr[..., 0] / den, 9.0 * arr[..., 1] / den], axis=-1)
 
 
+def uv1960_to_xy(uv: ArrayLike) -> NDArray[np.float64]:
+    """CIE xy from CIE 1960 uv, the inverse of :func:`xy_to_uv1960`: x = 3u / d, y = 2v / d,
+    d = 2u − 8v + 4."""
+    arr = _as_vectors(uv, 2, "uv")
+    den = 2.0 * arr[..., 0] - 8.0 * arr[..., 1] + 4.0
+    if np.any(den <= 0):
+        raise CDSpectraError("uv is not a chromaticity (2u − 8v + 4 ≤ 0)")
+    return np.stack([3.0 * arr[..., 0] / den, 2.0 * arr[..., 1] / den], axis=-1)
+
+
+def hat_cmfs() -> NDArray[np.float64]:
+    """The CIE 1931 2° CMFs integrated against each grid sample's hat, (81, 3) in nm, read-only.
+
+    ``spd @ hat_cmfs()`` is :func:`spd_to_xyz` without its checks: the same linear map for rows
+    that may be zero (a mix's optional part), as the training prior needs for batches."""
+    return _tables().cmf_hat
+
+
 # --- CCT and Duv (Ohno 2014) ---------------------------------------------------------------
 
 
@@ -233,6 +265,18 @@ def planck_uv1960(cct: ArrayLike) -> NDArray[np.float64]:
     xyz = radiance @ t.cmf_planck
     den = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
     return np.stack([4.0 * xyz[..., 0] / den, 6.0 * xyz[..., 1] / den], axis=-1)
+
+
+def cct_duv_to_uv1960(cct: ArrayLike, duv: ArrayLike) -> NDArray[np.float64]:
+    """CIE 1960 uv at a CCT (K) and Duv, the inverse of :func:`uv_to_cct_ohno2013`: the
+    Planckian point at ``cct`` moved by ``duv`` along the locus normal (Duv > 0 towards +v,
+    above the locus). The normal is taken from the locus at CCT and CCT + 0.01 K, as
+    colour-science's ``CCT_to_uv_Ohno2013`` does. ``cct`` and ``duv`` broadcast: (...) → (..., 2)."""
+    temps, shift = np.broadcast_arrays(np.asarray(cct, dtype=np.float64), np.asarray(duv, dtype=np.float64))
+    uv0 = planck_uv1960(temps)
+    back = uv0 - planck_uv1960(temps + 0.01)  # along the locus, from CCT + 0.01 K back to CCT
+    back = back / np.hypot(back[..., 0], back[..., 1])[..., None]
+    return np.stack([uv0[..., 0] - shift * back[..., 1], uv0[..., 1] + shift * back[..., 0]], axis=-1)
 
 
 def _ohno_chunk(uv: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -341,7 +385,7 @@ def _space(space: str) -> str:
     return name
 
 
-def xyz_to_working_rgb(xyz: ArrayLike, space: str = "Linear Rec.709") -> NDArray[np.float64]:
+def xyz_to_working_rgb(xyz: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> NDArray[np.float64]:
     """CIE XYZ (..., 3) → scene-linear RGB in a Blender working space (..., 3).
 
     ``space`` is Blender's ``working_space`` name ("Linear Rec.709", the 4.x default;
@@ -358,7 +402,7 @@ class LightColour(NamedTuple):
     out_of_gamut: bool
 
 
-def light_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> LightColour:
+def light_colour(spd: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> LightColour:
     """What a Blender light's ``color`` gets: working-space RGB with its largest channel 1.
 
     A light outside the working space's gamut (a narrow-band LED in Rec.709) has a negative
@@ -389,7 +433,7 @@ class SpectralColour:
     working_space: str
 
 
-def spectral_colour(spd: ArrayLike, space: str = "Linear Rec.709") -> SpectralColour:
+def spectral_colour(spd: ArrayLike, space: str = DEFAULT_WORKING_SPACE) -> SpectralColour:
     """The colour of one SPD: xy, CCT, Duv and the light's RGB in ``space``, all from the SPD.
 
     The one computation behind the estimate, the CLI and the Blender lights, so a light's
@@ -417,7 +461,7 @@ def luminance(spd: ArrayLike) -> float | NDArray[np.float64]:
 
 # --- comparison with a reference ------------------------------------------------------------
 
-_BANDS_NM = {"400_700": (400.0, 700.0), "380_780": (380.0, 780.0)}
+_BANDS_NM = {"400_700": VISIBLE_NM, "380_780": (WAVELENGTH_MIN_NM, WAVELENGTH_MAX_NM)}
 
 
 def compare_spds(estimate: ArrayLike, reference: ArrayLike) -> dict[str, float | None]:

@@ -1,10 +1,16 @@
-"""The one wavelength grid of the product and band-aware resampling onto it.
+"""The product's wavelength grids, and band-aware resampling onto the SPD grid.
 
 Every SPD the product reads, learns or writes lives on 380–780 nm in 5 nm steps. A sample
 ``E_i`` stands for a triangular ("hat") basis function of half-width 5 nm around ``λ_i``, so an
 SPD is the piecewise-linear curve through its samples. The forward model integrates each band
 against the same hat (see :mod:`cd_spectra_addon.core.grating`), which keeps narrow lamp lines
 from aliasing between samples.
+
+The photo is read on a second grid: the readout's bins of the first-order wavelength λ₁
+(:data:`FEATURE_LAMBDA_NM`, 350–870 nm, 5 nm wide), with the pixels whose lobe is at least
+:data:`MIN_VISIBILITY` visible. The readout, its forward matrix, the pose fit and the capture
+advice all bin λ₁ this way, so the grid is defined here, below all of them. :data:`VISIBLE_NM`
+is the band that set-ups must cover and that the comparisons and the advice judge.
 """
 
 from __future__ import annotations
@@ -18,16 +24,37 @@ WAVELENGTH_STEP_NM = 5.0
 WAVELENGTHS_NM: NDArray[np.float64] = np.arange(380.0, 780.0 + 0.5, 5.0)
 N_BANDS = WAVELENGTHS_NM.size  # 81
 
+FEATURE_STEP_NM = 5.0
+FEATURE_LAMBDA_NM: NDArray[np.float64] = np.arange(350.0, 870.0 + 0.5, FEATURE_STEP_NM)  # 105 bin centres
+N_FEATURES = FEATURE_LAMBDA_NM.size
+FEATURE_EDGE_NM = float(FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2)  # lower edge of the first bin
+MIN_VISIBILITY = 0.3  # a pixel counts where its first-order lobe, exp(−v²/2σ²), is at least this
+VISIBLE_NM = (400.0, 700.0)  # the band a set-up must put on the data area and the comparisons judge
+
 __all__ = [
     "WAVELENGTH_MIN_NM",
     "WAVELENGTH_MAX_NM",
     "WAVELENGTH_STEP_NM",
     "WAVELENGTHS_NM",
     "N_BANDS",
+    "FEATURE_STEP_NM",
+    "FEATURE_LAMBDA_NM",
+    "N_FEATURES",
+    "FEATURE_EDGE_NM",
+    "MIN_VISIBILITY",
+    "VISIBLE_NM",
+    "feature_bins",
     "hat_integrals",
     "resample_to_grid",
     "peak_normalise",
 ]
+
+
+def feature_bins(lambda_nm: ArrayLike, step_nm: float = FEATURE_STEP_NM) -> NDArray[np.int64]:
+    """The readout bin of each first-order wavelength, counted from :data:`FEATURE_EDGE_NM` in
+    steps of ``step_nm`` (the bins' own 5 nm, or a fraction for sub-bins). Indices outside
+    0 … N − 1 mean outside the grid: the caller masks them."""
+    return np.floor((np.asarray(lambda_nm, dtype=np.float64) - FEATURE_EDGE_NM) / step_nm).astype(np.int64)
 
 
 def hat_integrals(

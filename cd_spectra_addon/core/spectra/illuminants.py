@@ -45,25 +45,26 @@ C2_ITS90_NM_K = 1.4388e7
 _REFERENCE_NM = 560.0
 
 
-def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike, c2_nm_k: float = C2_NM_K
-           ) -> NDArray[np.float64]:
-    """Planck's spectral radiance shape λ⁻⁵/(exp(c₂/λT)−1), scaled to 1 at 560 nm.
-
-    ``temperature_k`` broadcasts against the wavelengths' last axis (pass shape (n, 1) for rows).
-    ``expm1`` keeps the ratio exact where c₂/λT is small (hot sources, long wavelengths).
-    """
-    lam = np.asarray(wavelengths_nm, dtype=np.float64)
-    t = np.asarray(temperature_k, dtype=np.float64)
-    return ((_REFERENCE_NM / lam) ** 5 * np.expm1(c2_nm_k / (_REFERENCE_NM * t))
-            / np.expm1(c2_nm_k / (lam * t)))
-
-
 def planck_radiance(wavelengths: ArrayLike, temperature_k: ArrayLike, c2: float) -> NDArray[np.float64]:
     """Planck's law without its constant factor, λ⁻⁵/(exp(c₂/λT)−1): wavelengths and ``c2`` in
     the same length unit (the scale then depends on it; ratios such as chromaticity do not).
-    ``temperature_k`` broadcasts against the wavelengths as numpy does."""
+    ``temperature_k`` broadcasts against the wavelengths as numpy does. ``expm1`` keeps the
+    value exact where c₂/λT is small (hot sources, long wavelengths).
+
+    The one implementation of the law in the product: :func:`planck`, the colour module's
+    Planckian locus and the training prior all come here."""
     lam = np.asarray(wavelengths, dtype=np.float64)
-    return lam**-5 / np.expm1(c2 / (lam * temperature_k))
+    return lam**-5 / np.expm1(c2 / (lam * np.asarray(temperature_k, dtype=np.float64)))
+
+
+def planck(wavelengths_nm: ArrayLike, temperature_k: ArrayLike, c2_nm_k: float = C2_NM_K
+           ) -> NDArray[np.float64]:
+    """Planck's spectral radiance shape :func:`planck_radiance`, scaled to 1 at 560 nm.
+
+    ``temperature_k`` broadcasts against the wavelengths' last axis (pass shape (n, 1) for rows).
+    """
+    t = np.asarray(temperature_k, dtype=np.float64)
+    return planck_radiance(wavelengths_nm, t, c2_nm_k) / planck_radiance(_REFERENCE_NM, t, c2_nm_k)
 
 
 def planck_spd(temperature_k: float) -> NDArray[np.float64]:

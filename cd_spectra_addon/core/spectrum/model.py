@@ -24,8 +24,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ModelError
-from ..readout.readout import FEATURE_LAMBDA_NM, N_FEATURES, Readout
-from ..spectra.grid import N_BANDS, WAVELENGTHS_NM
+from ..validation import check_number
+from ..readout.readout import Readout
+from ..spectra.grid import FEATURE_LAMBDA_NM, N_BANDS, N_FEATURES, WAVELENGTHS_NM
 
 MODEL_DIR = Path(__file__).resolve().parents[3] / "models"
 MODEL_NAME = "cd_spectra"
@@ -155,12 +156,12 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
                              "the metadata does not match the model — reinstall the add-on or rebuild the model")
     fusion = meta.get("fusion")
     if fusion is not None:  # strength and floor of the estimator's final solve
-        keys = ("strength", "floor", "calibrated_strength", "calibrated_floor")
-        values = [fusion.get(k, 0.05) for k in keys] if isinstance(fusion, dict) else [None]
-        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
-                   for v in values):
+        if not isinstance(fusion, dict):
             raise ModelError(f"model metadata {side.name}: fusion should hold a non-negative strength and floor, "
                              f"not {fusion!r} — reinstall the add-on or rebuild the model")
+        for key in ("strength", "floor", "calibrated_strength", "calibrated_floor"):
+            check_number(f"model metadata {side.name}: fusion.{key}", fusion.get(key, 0.05), at_least=0.0,
+                         error=lambda message: ModelError(f"{message} — reinstall the add-on or rebuild the model"))
         for key in ("band_weight", "calibrated_band_weight"):  # w(λ): network (1) vs physics + prior (0)
             if key not in fusion:
                 continue

@@ -11,7 +11,7 @@ Modules, each building on the ones before it:
 
 - ``grid``: the 5 nm hat grid, and how narrow lines, bands and smooth curves are put on it as
   ``resample_to_grid`` would, only fast;
-- ``white_point``: aiming white sources at a target CCT / Duv (an analytic observer, no tables);
+- ``white_point``: aiming white sources at a target CCT / Duv (the core's colorimetry);
 - ``families``: line lists, random building blocks, one generator per lamp family, and the
   default family weights;
 - ``sampling``: :func:`sample_spds` (a labelled mix) and :func:`gaussian_prior` (its mean and

@@ -23,6 +23,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cd_spectra_addon.core.numerics.special import FWHM_PER_SIGMA, erfc
 from cd_spectra_addon.core.spectra.grid import N_BANDS, WAVELENGTH_STEP_NM, WAVELENGTHS_NM, resample_to_grid
 
 Array = NDArray[np.float64]
@@ -31,27 +32,16 @@ GRID = WAVELENGTHS_NM
 D_FINE = WAVELENGTH_STEP_NM  # hat half-width = grid step (nm)
 FINE_STEP_NM = 0.5
 FINE_NM: Array = np.arange(370.0, 790.0 + FINE_STEP_NM / 2, FINE_STEP_NM)
-FWHM_TO_SIGMA = 1.0 / (2.0 * math.sqrt(2.0 * math.log(2.0)))
+FWHM_TO_SIGMA = 1.0 / FWHM_PER_SIGMA
 
 
 # ---------------------------------------------------------------------------------------------
 # Physics primitives
 # ---------------------------------------------------------------------------------------------
-def _erfc(x: Array) -> Array:
-    """Vectorised erfc (Numerical Recipes' Chebyshev fit, fractional error < 1.2e-7): keeps the
-    module numpy-only, like the add-on's core."""
-    z = np.abs(x)
-    t = 1.0 / (1.0 + 0.5 * z)
-    r = t * np.exp(-z * z - 1.26551223 + t * (1.00002368 + t * (0.37409196 + t * (0.09678418 + t * (
-        -0.18628806 + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (
-            -0.82215223 + t * 0.17087277)))))))))
-    return np.where(x >= 0, r, 2.0 - r)
-
-
 def _gauss_f2(t: Array, sigma: Array) -> Array:
     """Second antiderivative of a unit-area Gaussian: t·Φ(t/σ) + σ·φ(t/σ)."""
     u = t / sigma
-    return t * 0.5 * _erfc(-u / math.sqrt(2.0)) + sigma * np.exp(-0.5 * u * u) / math.sqrt(2 * math.pi)
+    return t * 0.5 * erfc(-u / math.sqrt(2.0)) + sigma * np.exp(-0.5 * u * u) / math.sqrt(2 * math.pi)
 
 
 def _lorentz_f2(t: Array, gamma: Array) -> Array:

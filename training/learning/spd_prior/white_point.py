@@ -1,66 +1,41 @@
 """Aiming white sources at a target CCT / Duv, as lamp makers bin their products.
 
-Only the white families (LEDs, tri-phosphor fluorescent, metal halide) use it. CIE 1931 2° CMFs
-by the analytic multi-lobe fit of Wyman, Sloan & Shirley (JCGT 2013): an observer model, not a
-light source, and no table import; Planck's law from the core's illuminants.
+Only the white families (LEDs, tri-phosphor fluorescent, metal halide) use it. The colorimetry
+is the core's (:mod:`cd_spectra_addon.core.spectra.colour`): the CIE 1931 2° observer
+integrated over each grid sample's hat, the CIE Planckian locus and Ohno's CCT / Duv, so the
+prior aims its whites with the same numbers the product reports. An observer and the locus
+are not light sources: the prior still reads no measured spectrum.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from functools import cache
 
 import numpy as np
 from numpy.typing import NDArray
 
-# Planck's law and c2 only: the prior takes no CIE illuminant from that module (tested).
-from cd_spectra_addon.core.spectra.illuminants import planck
+from cd_spectra_addon.core.spectra.colour import (
+    cct_duv_to_uv1960,
+    hat_cmfs,
+    uv1960_to_xy,
+    uv_to_cct_ohno2013,
+    xy_to_uv1960,
+    xyz_to_xy,
+)
 from cd_spectra_addon.core.spectra.grid import N_BANDS
-
-from training.learning.spd_prior.grid import GRID
 
 Array = NDArray[np.float64]
 Generator = np.random.Generator
 
-# ---------------------------------------------------------------------------------------------
-# Colour helpers: only to aim white sources at a target CCT/Duv, as products are binned.
-# CIE 1931 2° CMFs by the analytic multi-lobe fit of Wyman, Sloan & Shirley (JCGT 2013): an
-# observer model, not a light source, and no table import.
-# ---------------------------------------------------------------------------------------------
-def _lobe(lam: Array, mu: float, s1: float, s2: float) -> Array:
-    s = np.where(lam < mu, s1, s2)
-    return np.exp(-0.5 * ((lam - mu) / s) ** 2)
-
-
-@cache
-def _cmf_grid() -> Array:
-    lam = GRID
-    x = 1.056 * _lobe(lam, 599.8, 37.9, 31.0) + 0.362 * _lobe(lam, 442.0, 16.0, 26.7) \
-        - 0.065 * _lobe(lam, 501.1, 20.4, 26.2)
-    y = 0.821 * _lobe(lam, 568.8, 46.9, 40.5) + 0.286 * _lobe(lam, 530.9, 16.3, 31.1)
-    z = 1.217 * _lobe(lam, 437.0, 11.8, 36.0) + 0.681 * _lobe(lam, 459.0, 26.0, 13.8)
-    return np.stack([x, y, z], axis=-1)  # (81, 3)
-
 
 def _xyz(spd: Array) -> Array:
-    return spd @ _cmf_grid()
-
-
-def _uv(xyz: Array) -> Array:
-    d = xyz[..., 0] + 15.0 * xyz[..., 1] + 3.0 * xyz[..., 2]
-    return np.stack([4.0 * xyz[..., 0] / d, 6.0 * xyz[..., 1] / d], axis=-1)
+    """CIE XYZ of grid SPDs (..., 81) → (..., 3); rows may be zero (a mix without a fixed part)."""
+    return spd @ hat_cmfs()
 
 
 def _target_xy(cct: Array, duv: Array) -> Array:
-    """Chromaticity at (CCT, Duv): Planckian point moved by Duv along the locus normal in uv."""
-    uv0 = _uv(_xyz(planck(GRID, cct[:, None])))
-    uv1 = _uv(_xyz(planck(GRID, cct[:, None] * 1.01)))
-    tan = uv1 - uv0
-    normal = np.stack([tan[:, 1], -tan[:, 0]], axis=-1)  # towards +v: above the locus (greenish)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    u, v = (uv0 + duv[:, None] * normal).T
-    den = 2.0 * u - 8.0 * v + 4.0
-    return np.stack([3.0 * u / den, 2.0 * v / den], axis=-1)
+    """Chromaticity at (CCT, Duv): the Planckian point moved by Duv along the locus normal."""
+    return uv1960_to_xy(cct_duv_to_uv1960(cct, duv))
 
 
 def _solve_mix(parts: Array, fixed: Array, fixed_share: Array, target_xy: Array) -> tuple[Array, Array]:
@@ -122,18 +97,8 @@ def white_mix(
     return out
 
 
-@cache
-def _locus_table() -> tuple[Array, Array]:
-    t = np.geomspace(1000.0, 1e5, 600)
-    return t, _uv(_xyz(planck(GRID, t[:, None])))
-
-
 def cct_duv(spd: Array) -> tuple[Array, Array]:
-    """Approximate CCT and Duv (nearest of 600 tabulated Planckian points, CCT within ~0.4 %):
-    enough to keep mostly-white lamp families white."""
-    t, loc = _locus_table()
-    uv = _uv(_xyz(spd))
-    d = uv[:, None, :] - loc[None, :, :]
-    j = np.argmin(np.einsum("mtk,mtk->mt", d, d), axis=1)
-    dist = np.sqrt(np.einsum("mk,mk->m", d[np.arange(j.size), j], d[np.arange(j.size), j]))
-    return t[j], np.where(uv[:, 1] >= loc[j, 1], dist, -dist)
+    """CCT (K) and Duv of SPDs (m, 81) with positive power, by Ohno (2014) as the product
+    reports them (no range check: far from the locus the numbers are only a direction)."""
+    cct_duv_rows = uv_to_cct_ohno2013(xy_to_uv1960(xyz_to_xy(_xyz(spd))))
+    return cct_duv_rows[..., 0], cct_duv_rows[..., 1]
