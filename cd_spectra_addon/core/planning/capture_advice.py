@@ -20,6 +20,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
+from ..photo.resample import channel_sum
 from ..scene.capture import Light, Pose, Preset, Scene
 from ..scene.diffraction import pixel_diffraction
 from ..scene.relative_pose import near_axis
@@ -94,7 +95,7 @@ def glint_px(rgb: NDArray[np.float64], saturated: NDArray[np.bool_]) -> tuple[fl
     It is the brightest spot where that spot is clipped or outshines nearly all of the photo
     (a photo exposed for the glint leaves the rainbow dim). Its place gives the lamp's
     direction even when the fit finds no rainbow."""
-    lum = np.asarray(rgb, dtype=np.float64).sum(axis=2)
+    lum = channel_sum(rgb)
     sat = np.asarray(saturated, dtype=bool)
     if np.any(sat):
         spot = sat

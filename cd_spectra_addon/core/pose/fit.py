@@ -31,10 +31,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..numerics.least_squares import levenberg_marquardt
-from ..photo.resample import box_downsample
+from ..photo.resample import box_downsample, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, diffraction_along, project
-from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, scene_from_relative
+from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .rim_ellipse import disc_base, disc_ellipse
 from .self_consistency import ProfileGrid, SelfConsistency
@@ -42,7 +42,7 @@ from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
 
 __all__ = ["fit_pose", "COARSE_SIDE", "STAGES"]
 
-COARSE_SIDE = 256  # the coarse level's long side (px)
+COARSE_SIDE = 450  # the coarse level's long side (px): a box of 2 px at a 24 MP photo's loaded size (3 blurs a near-axis tilt away)
 COARSE_PIXELS = 3000  # pixels the coarse cost looks at
 FINE_PIXELS = 8000  # ...and the fine one
 REPORT_PIXELS = 12_000  # pixels the reported (binned) consistency looks at
@@ -55,10 +55,13 @@ TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit eac
 # through the lamp's direction varying over the disc, and left free it soaked up colour errors of
 # an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
 FREE = np.array([0, 1, 2, 3, 4, 5, 7])
-LM_ITERATIONS = (15, 10)  # per stage: most of a fit's progress is in its first steps
-LM_TOL = 1e-3  # a step that improves the cost by less than this (relative) ends the stage
+LM_ITERATIONS = (15, 12)  # per stage: most of a fit's progress is in its first steps
+LM_TOL = (1e-3, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
 PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
 PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log lamp distance, log σ
+# The start strategies in the order they are tried, cheapest first; the fit stops after a tier
+# whose best coarse fit explains the photo (GOOD_COST), see fit_pose.
+TIERS = (("preset",), ("pattern", "outline", "rings"), ("colours",), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
 _DEBUG = bool(os.environ.get("CDS_POSE_DEBUG"))
 
@@ -99,15 +102,21 @@ class _Level:
         """Flat indices of up to ``count`` pixels (sorted): the brightest half, where the rainbow
         is, and a fixed random sample of the rest, where the pose must predict darkness; clipped
         pixels never. A partial sort: a full one of a 1 MP photo took 60 ms per call."""
-        lum = self.rgb.sum(axis=2).ravel()
+        lum = channel_sum(self.rgb).ravel()
+        usable = np.isfinite(lum)
         if self.saturated is not None:
-            lum = np.where(self.saturated.reshape(-1), -np.inf, lum)
-        usable = int(np.sum(np.isfinite(lum)))
-        half = min(count // 2, usable)
-        bright = np.argpartition(-lum, half - 1)[:half] if half > 0 else np.zeros(0, dtype=np.int64)
-        rest = np.setdiff1d(np.flatnonzero(np.isfinite(lum)), bright)
+            usable &= ~self.saturated.reshape(-1)
+        n_usable = int(np.sum(usable))
+        half = min(count // 2, n_usable)
+        if half > 0:
+            ranked = np.where(usable, lum, -np.inf)
+            bright = np.argpartition(-ranked, half - 1)[:half]
+        else:
+            bright = np.zeros(0, dtype=np.int64)
+        usable[bright] = False
+        rest = np.flatnonzero(usable)
         take = min(count - half, rest.size)
-        pick = np.random.default_rng(0).choice(rest, size=take, replace=False) if take else rest[:0]
+        pick = rest[np.unique(np.random.default_rng(0).integers(0, rest.size, take))] if take else rest[:0]
         return np.sort(np.concatenate([bright, pick])).astype(np.int64)
 
 
@@ -130,7 +139,7 @@ class _Problem:
         r = self.objective.residuals_at(rel)
         return float(r @ r)
 
-    def fit(self, x0: NDArray[np.float64], iterations: int, tol: float = LM_TOL) -> tuple[NDArray[np.float64], float]:
+    def fit(self, x0: NDArray[np.float64], iterations: int, tol: float) -> tuple[NDArray[np.float64], float]:
         """LM over the free parameters from ``x0``: (parameters, cost with the prior)."""
         prior_rows = np.zeros((N_PARAMS, FREE.size))
         prior_rows[FREE, np.arange(FREE.size)] = PRIOR_WEIGHT / PRIOR_SCALE[FREE]
@@ -207,22 +216,25 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         return _Problem(level, f_sample, f_rays, start, preset, sensitivities, stage)
 
     fits: list[_Fitted] = []
-    tiers = [[name for name in strategies if name != "colours"], [name for name in strategies if name == "colours"],
-             list(escalations)]
-    for k, tier in enumerate(tiers):
-        if not tier:
+    oblique = not near_axis(preset)
+    for k, tier in enumerate(TIERS):
+        names = [name for name in tier if name in strategies or name in escalations]
+        if not names:
             continue
-        if k == 2:  # escalations scan the coarse cost around the best fits so far
+        escalating = any(name in ESCALATIONS for name in names)
+        if escalating:  # escalations scan the coarse cost around the best fits so far
             judge = problem(fits[0].capture if fits else ctx.nominal())
             ctx.cost = judge.cost_at
             ctx.found = [Start(f.start.strategy, f.capture) for f in fits] or ctx.found
+            if fits and fits[0].cost <= GOOD_COST:
+                names = [name for name in names if name == "in-plane"]
         new: list[Start] = []
-        for name in tier:
+        for name in names:
             new.extend(STRATEGIES[name](ctx))
-        if k < 2:
-            ctx.found.extend(new)
-        else:
+        if escalating:
             evals += judge.evaluations
+        else:
+            ctx.found.extend(new)
         scored = []
         for s in new:
             p = problem(s.pose)
@@ -231,16 +243,18 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         scored.sort(key=lambda item: item[0])
         for _, s in scored[:TRIED_STARTS]:
             p = problem(s.pose)
-            x, cost = p.fit(s.params, LM_ITERATIONS[0])
+            x, cost = p.fit(s.params, LM_ITERATIONS[0], LM_TOL[0])
             evals += p.evaluations
             fits.append(_Fitted(cost, s, x))
             if cost <= GOOD_COST:
                 break
         fits.sort(key=lambda fit: fit.cost)
-        clock.lap(("starts", "colours", "escalations")[k])
+        clock.lap("+".join(names))
         if _DEBUG:
             print("tier", k, [(f.start.strategy, round(f.cost, 5)) for f in fits])
-        if fits and fits[0].cost <= GOOD_COST:
+        # An oblique capture that only the rainbow's colours explained also gets its in-plane
+        # valley followed: there the colour pins the wavelength axis only to a comb of teeth.
+        if fits and fits[0].cost <= GOOD_COST and not (oblique and "colours" in tier):
             break
     evals += ctx.evaluations
     f_sample = fine.sample(FINE_PIXELS)
@@ -249,7 +263,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     finished = []
     for f in finalists:
         p = problem(f.capture, fine, STAGES[1])
-        x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1])
+        x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1], LM_TOL[1])
         evals += p.evaluations
         finished.append(_Fitted(cost, Start(f.start.strategy, f.capture), x))
     best = min(finished, key=lambda fit: fit.cost)

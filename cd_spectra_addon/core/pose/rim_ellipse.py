@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..photo.resample import box_downsample
+from ..photo.resample import box_downsample, channel_sum
 
 WORK_SIDE = 256  # the outline is found on an image of about this size
 MIN_SHARE = 0.02  # of the image the disc must cover
@@ -57,7 +57,7 @@ def disc_ellipse(rgb: NDArray[np.floating], saturated: NDArray[np.bool_] | None 
     """The disc's outline as an ellipse in ``rgb``'s pixels, or None where none shows."""
     height, width = rgb.shape[:2]
     factor = max(1, int(round(max(height, width) / WORK_SIDE)))
-    lum = box_downsample(np.asarray(rgb, dtype=np.float64), factor).sum(axis=2)
+    lum = channel_sum(box_downsample(rgb, factor))
     if saturated is not None:
         sat = box_downsample(np.asarray(saturated, dtype=np.float64), factor) > 0
         lum = np.where(sat, np.nan, lum)

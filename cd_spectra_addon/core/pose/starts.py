@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..photo.resample import box_downsample
+from ..photo.resample import box_downsample, channel_sum
 from ..planning.capture_advice import glint_px
 from ..scene.capture import Preset, Scene
 from ..scene.diffraction import pixel_diffraction
@@ -127,7 +127,7 @@ def _shift_by_correlation(photo_lum: NDArray[np.float64], pattern: NDArray[np.fl
 def _small(ctx: StartContext) -> tuple[NDArray[np.float64], int]:
     height, width = ctx.rgb.shape[:2]
     factor = max(1, int(round(max(height, width) / PATTERN_SIDE)))
-    lum = box_downsample(ctx.rgb, factor).sum(axis=2)
+    lum = channel_sum(box_downsample(ctx.rgb, factor))
     return np.clip(lum - np.median(lum), 0.0, None), factor
 
 
@@ -318,7 +318,7 @@ def in_plane_starts(ctx: StartContext) -> list[Start]:
     if ctx.cost is None:
         return []
     out = []
-    for base in _line_bases(ctx):
+    for base in _line_bases(ctx)[:1]:
         found = _valley(ctx.cost, base)
         if found is not None:
             out.append(Start("in-plane", found))

@@ -140,7 +140,8 @@ class Diffraction:
 
 
 def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.einsum("...i,...i->...", a, b)
+    """Row-wise dot product of (…, 3) arrays (three multiplies: faster than einsum or sum)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 def diffraction_at(points: NDArray[np.float64], view: NDArray[np.float64], centre: NDArray[np.float64],
