@@ -26,7 +26,7 @@ from cd_spectra_addon.core.inverse.estimate import camera_for, camera_prior_for,
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from training.learning.dataset import camera_split
 from training.learning.spd_prior import sample_spds

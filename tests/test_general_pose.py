@@ -8,7 +8,9 @@ from hypothesis.extra.numpy import arrays
 
 from cd_spectra_addon.core.readout import ambient
 
-from cd_spectra_addon.core.pose import pose_fit
+from cd_spectra_addon.core.pose import result as pose_result
+from cd_spectra_addon.core.pose.fit import fit_pose
+from cd_spectra_addon.core.scene import relative_pose
 from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
 from training.simulation import photo
@@ -42,7 +44,8 @@ def test_lamp_beside_the_lens_is_found_despite_its_glint(offset_mm):
     scene, image = _capture(Pose(light_offset_mm=(offset_mm, 0.0)))
     clipped = np.minimum(image, 1.0)
     assert np.max(image) > 3.0  # the glint really is far brighter than the rainbow
-    fit = pose_fit.fit_pose(clipped, scene.preset, scene.preset.camera.focal_px, sensitivities=CAMERA.sensitivities)
+    fit = fit_pose(clipped, scene.preset, scene.preset.camera.focal_px, sensitivities=CAMERA.sensitivities,
+                   saturated=image.max(axis=2) >= 1.0)
     truth_ring = _ring_centre_truth(scene)
     centre = scene.project(scene.disc_center[None, :])[0]
     assert np.hypot(*np.subtract(fit.ring_center_px, truth_ring)) < 1.0
@@ -58,13 +61,15 @@ def test_colour_constraint_prefers_the_true_wavelength_axis():
     size = scene.preset.camera.image_size_px
     ring = _ring_centre_truth(scene)
     centre = tuple(scene.project(scene.disc_center[None, :])[0])
-    colour = pose_fit.expected_colours(CAMERA.sensitivities, pose_fit.FIT_STEP_NM,
-                                       pose_fit.colour_blur_nm(scene.preset, 0.003, f))
+    colour = pose_result.expected_colours(CAMERA.sensitivities, pose_result.FIT_STEP_NM,
+                                          pose_result.colour_blur_nm(scene.preset, 0.003, f))
+    rel = relative_pose.relative_pose(scene)
 
     def cost(shift: float, use_colour: bool) -> float:
-        moved = (ring[0], ring[1] + shift)
-        s = pose_fit.scene_for(scene.preset, size, f, (centre[0], centre[1] + shift), moved)
-        return pose_fit.consistency(image, s, step_nm=pose_fit.FIT_STEP_NM, colour=colour if use_colour else None)
+        moved = relative_pose.with_disc_centre_at(rel, (centre[0], centre[1] + shift), size, f)
+        moved = relative_pose.with_lamp_mirrored_at(moved, (ring[0], ring[1] + shift), size, f)
+        s = relative_pose.scene_from_relative(moved, scene.preset, size, f)
+        return pose_result.consistency(image, s, step_nm=pose_result.FIT_STEP_NM, colour=colour if use_colour else None)
 
     plain_gain = cost(3.0, False) - cost(0.0, False)
     colour_gain = cost(3.0, True) - cost(0.0, True)

@@ -10,7 +10,8 @@ from scipy.optimize import nnls as scipy_nnls
 
 from cd_spectra_addon.core.readout import forward_matrix
 
-from cd_spectra_addon.core.pose import pose_fit
+from cd_spectra_addon.core.pose.fit import fit_pose
+from cd_spectra_addon.core.pose.starts import symmetry_centre
 
 from cd_spectra_addon.core.readout import readout
 
@@ -60,17 +61,8 @@ def test_symmetry_centre_is_subpixel():
     for centre in [(60.3, 70.7), (55.0, 81.25)]:
         r = np.hypot(rows - centre[0], cols - centre[1])
         img = np.exp(-0.5 * ((r - 30) / 2.0) ** 2) + 0.5 * np.exp(-0.5 * ((r - 45) / 3.0) ** 2)
-        found = pose_fit.symmetry_centre(img)
+        found = symmetry_centre(img)
         assert abs(found[0] - centre[0]) < 0.05 and abs(found[1] - centre[1]) < 0.05
-
-
-def test_fast_untilted_path_matches_the_general_ray_caster():
-    base = load_preset("cd-default").with_image_size(96)
-    flat = pixel_diffraction(Scene(base, Pose((2.0, -1.0), (5.0, 3.0))))
-    general = pixel_diffraction(Scene(base, Pose((2.0, -1.0), (5.0, 3.0), (1e-9, 0.0))))
-    assert np.array_equal(flat.index, general.index)
-    assert np.max(np.abs(flat.lambda1_nm - general.lambda1_nm)) < 1e-6
-    assert np.max(np.abs(flat.visibility - general.visibility)) < 1e-6
 
 
 def test_a_single_line_lands_in_its_lambda1_bin(nominal):
@@ -134,7 +126,7 @@ def test_pose_fit_finds_the_disc_centre(pose):
     scene = Scene(load_preset("cd-default").with_image_size(192), pose)
     cube = render_cube(scene, supersample=3)
     img = _photo(cube, planck_spd(3000.0), scene, noise=0.005)
-    fit = pose_fit.fit_pose(img, load_preset("cd-default"), scene.preset.camera.focal_px)
+    fit = fit_pose(img, load_preset("cd-default"), scene.preset.camera.focal_px)
     truth = scene.project(np.zeros((1, 3)))[0]
     assert math.dist(fit.center_px, truth) < 0.6
     assert fit.residual < 0.01  # the fitted pose explains the photo (noise aside)

@@ -15,7 +15,7 @@ from cd_spectra_addon.core.errors import NoDiscError
 from cd_spectra_addon.core.inverse.estimate import _prior, camera_for, estimate_image
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
-from cd_spectra_addon.core.pose.pose_fit import fit_pose
+from cd_spectra_addon.core.pose.fit import fit_pose
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.learning.dataset import sample_features
 from training.simulation import photo

@@ -8,9 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cd_spectra_addon.core.pose import general_pose
-
-from cd_spectra_addon.core.pose import profile_residuals
+from cd_spectra_addon.core.pose import self_consistency
+from cd_spectra_addon.core.pose.fit import fit_pose
 
 from cd_spectra_addon.core.scene import kernel, relative_pose
 
@@ -57,7 +56,7 @@ def oblique_photo(tmp_path_factory):
     path = tmp_path_factory.mktemp("oblique") / "oblique.jpg"
     photo.write_photo(path, image, "jpg", photo.exif_for(c.focal_length_mm, c.sensor_width_mm, 2 * SIZE, CAMERA.name))
     loaded = load_photo(path, max_side=SIZE)
-    fit = general_pose.fit_general_pose(np.asarray(loaded.rgb, np.float64), load_preset("tripod-oblique"),
+    fit = fit_pose(np.asarray(loaded.rgb, np.float64), load_preset("tripod-oblique"),
                                         c.focal_px, sensitivities=CAMERA.sensitivities,
                                         saturated=np.asarray(loaded.saturated))
     return scene, loaded, fit
@@ -129,7 +128,7 @@ def test_the_fitted_streak_shows_the_grating_equation_wavelengths(oblique_photo)
     # streak (v = 0) by the forward model instead of setups.first_order_positions.
     px = pixel_diffraction(scene)
     streak = px.on_tracks & (px.visibility > 0.3)
-    nominal = general_pose.nominal_scene(load_preset("tripod-oblique"), (SIZE, SIZE), scene.preset.camera.focal_px)
+    nominal = relative_pose.nominal_scene(load_preset("tripod-oblique"), (SIZE, SIZE), scene.preset.camera.focal_px)
     for target in (450.0, 530.0, 610.0):
         k = np.flatnonzero(streak)[np.argmin(np.abs(px.lambda1_nm[streak] - target))]
         assert abs(px.lambda1_nm[k] - target) < 2.0
@@ -158,7 +157,7 @@ def test_an_oblique_photo_is_read_not_refused(oblique_photo):
     2× the MAE the true pose gives. (Not closer: along the streak the disc centre is found only to
     ~1.5 mm, which moves the tracks' outer edge, where the blue end lies, and the lamp's direction
     ~1°; the bins there change by up to 7 %, and a physics-only solve amplifies that.)"""
-    from cd_spectra_addon.core.pose.pose_fit import PoseFit
+    from cd_spectra_addon.core.pose.result import PoseFit
 
     scene, loaded, _ = oblique_photo
     kwargs = dict(preset="tripod-oblique", camera=DEFAULT_CAMERA, model=None, method="physics")
@@ -189,8 +188,8 @@ def test_profile_residuals_are_finite_for_any_pixels(values, lam, amp, step):
     """Whatever pixels a photo gives (zero amplitudes, λ₁ off the grid, duplicates), the smooth
     self-consistency is finite, has a fixed length, and never exceeds the pixels' own energy
     by more than the colour terms."""
-    grid = profile_residuals.ProfileGrid.with_camera(300.0, 1000.0, step, CAMERA.sensitivities, 3.0)
-    r = profile_residuals.profile_residuals(values, lam, amp, grid)
+    grid = self_consistency.ProfileGrid.with_camera(300.0, 1000.0, step, CAMERA.sensitivities, 3.0)
+    r = self_consistency.profile_residuals(values, lam, amp, grid)
     assert np.all(np.isfinite(r)) and r.size == values.size + 3 * int(np.sum(~np.isnan(grid.colour[:, 0])))
     assert float(np.sum(r[: values.size] ** 2)) <= float(np.sum(values ** 2)) * (1 + 1e-9) + 1e-12
 
@@ -203,12 +202,12 @@ def test_profile_residuals_survive_a_vanishing_lobe(values, lam, amp, exponent):
     """A pose far off puts every pixel in the lobe's far tail (amplitudes ~1e-155, squares in
     the denormals): the residuals are still finite and the same as for the amplitudes scaled
     up (the profile absorbs a common scale). Before, the pivots underflowed to zero."""
-    grid = profile_residuals.ProfileGrid.with_camera(300.0, 1000.0, 5.0, CAMERA.sensitivities, 3.0)
-    small = profile_residuals.profile_residuals(values, lam, amp * 10.0 ** exponent, grid)
+    grid = self_consistency.ProfileGrid.with_camera(300.0, 1000.0, 5.0, CAMERA.sensitivities, 3.0)
+    small = self_consistency.profile_residuals(values, lam, amp * 10.0 ** exponent, grid)
     assert np.all(np.isfinite(small))
     peak = float(np.max(amp)) * 10.0 ** exponent
-    if 0.0 < peak < profile_residuals.TINY_AMPLITUDE:  # rescaled: as the same pixels at peak 1
-        same = profile_residuals.profile_residuals(values, lam, amp * 10.0 ** exponent / peak, grid)
+    if 0.0 < peak < self_consistency.TINY_AMPLITUDE:  # rescaled: as the same pixels at peak 1
+        same = self_consistency.profile_residuals(values, lam, amp * 10.0 ** exponent / peak, grid)
         assert np.allclose(small, same, rtol=1e-6, atol=1e-9)
 
 
@@ -218,7 +217,7 @@ def test_profile_residuals_survive_a_vanishing_lobe(values, lam, amp, exponent):
 def test_the_general_fit_never_returns_nan(image, name):
     """Any image (noise, flat, black) gives a pose fit with finite numbers."""
     preset = load_preset(name)
-    fit = general_pose.fit_general_pose(image, preset, 60.0, sensitivities=CAMERA.sensitivities,
+    fit = fit_pose(image, preset, 60.0, sensitivities=CAMERA.sensitivities,
                                         saturated=image.max(axis=2) >= 1.0)
     assert np.all(np.isfinite([*fit.center_px, fit.lobe_sigma, fit.residual, fit.null_residual, fit.distance_mm]))
     assert 0.0 <= fit.rainbow_contrast <= 1.0
@@ -243,10 +242,13 @@ def test_the_fit_evaluates_the_same_diffraction_as_the_inverse():
 @given(arrays(np.float64, 60, elements=st.floats(1.0, 10.0)), arrays(np.float64, 59, elements=st.floats(-0.45, 0.45)),
        arrays(np.float64, (60, 3), elements=st.floats(-5.0, 5.0)))
 def test_the_tridiagonal_solve_matches_a_dense_one(diag, off, rhs):
-    """The Thomas solve of the profile's normal equations equals numpy's dense solve (diagonally
-    dominant systems, as the normal equations of shared pixel weights are)."""
+    """The cyclic-reduction solve of the profile's normal equations equals numpy's dense solve
+    (diagonally dominant systems, as the normal equations of shared pixel weights are), for one
+    right-hand side and for many."""
     dense = np.diag(diag) + np.diag(off, 1) + np.diag(off, -1)
-    assert np.allclose(profile_residuals.solve_tridiagonal(diag, off, rhs), np.linalg.solve(dense, rhs), atol=1e-9)
+    assert np.allclose(self_consistency.solve_tridiagonal(diag, off, rhs), np.linalg.solve(dense, rhs), atol=1e-9)
+    assert np.allclose(self_consistency.solve_tridiagonal(diag, off, rhs[:, 0]), np.linalg.solve(dense, rhs[:, 0]),
+                       atol=1e-9)
 
 
 @pytest.mark.slow
@@ -256,7 +258,7 @@ def test_a_wrong_wavelength_axis_shows_in_the_camera_colours_and_the_confidence(
     disagrees by the shift the pose makes, and the estimate says so and is trusted less."""
     from cd_spectra_addon.core.inverse.prepare import prepare
     from cd_spectra_addon.core.readout.colour_check import wavelength_shift_nm
-    from cd_spectra_addon.core.pose.pose_fit import PoseFit, colour_blur_nm
+    from cd_spectra_addon.core.pose.result import PoseFit, colour_blur_nm
 
     scene, loaded, _ = oblique_photo
     rel = relative_pose.relative_pose(scene)
@@ -320,7 +322,7 @@ def test_a_visible_outline_rescues_a_wrong_preset():
     errors = []
     for extra in (0.0, _lit_disc(scene)):
         noisy = np.minimum(photo.add_noise(image + extra, 0.01, np.random.default_rng(0)), 1.0)
-        fit = general_pose.fit_general_pose(noisy, said, scene.preset.camera.focal_px,
+        fit = fit_pose(noisy, said, scene.preset.camera.focal_px,
                                             sensitivities=CAMERA.sensitivities)
         got = pixel_diffraction(fit.known_scene, px.index[sel])
         keep = np.isin(px.index[sel], got.index)
@@ -375,7 +377,7 @@ def test_an_in_plane_turn_is_found_on_an_oblique_streak(pose):
     the true wavelengths (within 1.5 nm on the first-order pixels), not a neighbouring valley."""
     scene = _oblique(pose)
     noisy = _noisy_photo(scene)
-    fit = general_pose.fit_general_pose(noisy, load_preset("tripod-oblique"), scene.preset.camera.focal_px,
+    fit = fit_pose(noisy, load_preset("tripod-oblique"), scene.preset.camera.focal_px,
                                         sensitivities=CAMERA.sensitivities)
     kept, error = _first_order_error(scene, fit.known_scene)
     assert kept > 0.9
@@ -397,7 +399,7 @@ def test_a_tilted_disc_under_a_near_axis_camera_is_read_as_tilted(name, zoom):
     preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * zoom))
     scene = Scene(preset, Pose(tilt_deg=(5.0, 0.0)))
     noisy = _noisy_photo(scene)
-    fit = general_pose.fit_general_pose(noisy, load_preset(name), scene.preset.camera.focal_px,
+    fit = fit_pose(noisy, load_preset(name), scene.preset.camera.focal_px,
                                         sensitivities=CAMERA.sensitivities, saturated=noisy.max(axis=2) >= 1.0)
     fitted, true = capture_angles(fit.known_scene), capture_angles(scene)
     assert abs(fitted[0] - true[0]) < 1.0 and abs(fitted[1] - true[1]) < 1.0

@@ -34,7 +34,7 @@ from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.result import PoseFit
 
 from training.learning.dataset import CubeSpec, disc_fill_multiplier
 from training.learning.spd_prior import gaussian_prior, sample_spds

@@ -31,7 +31,9 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.spectra import colour as colour_core
-from cd_spectra_addon.core.inverse.prepare import focal_px_for
+from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.pose.result import PoseFit
+from cd_spectra_addon.core.scene.relative_pose import relative_pose, scene_from_relative, with_disc_centre_at
 from cd_spectra_addon.core.calibration.calibration import Calibration, new_metadata
 from cd_spectra_addon.core.inverse.calibration_shot import gains_from_image
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
@@ -39,7 +41,6 @@ from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Disc, Scene, loa
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
-from cd_spectra_addon.core.pose.pose_fit import fit_pose
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
@@ -148,6 +149,16 @@ def _calibration_for(photos: Photos, cond: Condition, model) -> Calibration:
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
 
 
+def _disc_moved(fit: PoseFit, rows: float, cols: float) -> Scene:
+    """The fitted capture with the disc slid (in its plane) by (rows, cols) pixels in the photo:
+    an injected centre error."""
+    scene = fit.known_scene
+    size = scene.preset.camera.image_size_px
+    rel = relative_pose(scene)
+    moved = with_disc_centre_at(rel, (fit.center_px[0] + rows, fit.center_px[1] + cols), size, fit.focal_px)
+    return scene_from_relative(moved or rel, scene.preset, size, fit.focal_px)
+
+
 def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, method: str = METHOD_MODEL,
                   seed: int = 0) -> tuple[list[dict[str, float]], list[np.ndarray], float]:
     """Metrics per lamp, the estimates, and the mean seconds per photo (estimate only)."""
@@ -162,12 +173,10 @@ def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, met
         image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
         fit = None
         if cond.center_error_px:
-            focal, _ = focal_px_for(image, preset)
-            base = fit_pose(np.asarray(image.rgb, np.float64), preset, focal)
+            base = prepare(image, preset, load_camera(cond.profile or cond.camera)).fit
             angle = 2 * math.pi * ((i * 0.618) % 1.0)
             d = cond.center_error_px
-            fit = replace(base, center_px=(base.center_px[0] + d * math.sin(angle),
-                                           base.center_px[1] + d * math.cos(angle)))
+            fit = base.with_scene(_disc_moved(base, d * math.sin(angle), d * math.cos(angle)))
         est = estimate_image(image, preset=preset, camera=cond.profile or cond.camera, calibration=cal,
                              model=model, method=method, fit=fit)
         seconds.append(time.perf_counter() - t0)

@@ -49,8 +49,8 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
-from cd_spectra_addon.core.pose.general_pose import fit_general_pose
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.fit import fit_pose
+from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.planning.capture_advice import capture_angles
 from cd_spectra_addon.core.scene.relative_pose import near_axis
 
@@ -197,7 +197,7 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
             # prepare's own pose fit, done here once so its result can be compared with the truth
             rgb = np.asarray(loaded.rgb, dtype=np.float64)
             clipped = np.asarray(loaded.saturated) | np.asarray(loaded.invalid)
-            fit = fit_general_pose(rgb - rough_offset(rgb, clipped), preset, focal_px_for(loaded, preset)[0],
+            fit = fit_pose(rgb - rough_offset(rgb, clipped), preset, focal_px_for(loaded, preset)[0],
                                    sensitivities=cam.sensitivities, saturated=clipped)
             fit_s = time.perf_counter() - t0
             est = estimate_image(loaded, preset=preset, model=model, fit=fit)

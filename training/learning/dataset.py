@@ -43,7 +43,7 @@ from cd_spectra_addon.core.inverse.estimate import solving_camera
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.photo.images import LinearImage, load_photo
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.spectrum.solve import GaussianPrior
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 

@@ -26,7 +26,7 @@ from torch import nn
 
 from cd_spectra_addon import __version__
 from cd_spectra_addon.core.spectra import colour
-from cd_spectra_addon.core.pose import pose_fit
+from cd_spectra_addon.core.pose import fit as pose_fit
 from cd_spectra_addon.core.readout import readout
 from cd_spectra_addon.core.spectrum import solve
 from cd_spectra_addon.core.scene.capture import preset_names, PRESET_DIR
@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         "wavelength_nm": WAVELENGTHS_NM.tolist(),
         "feature_lambda_nm": readout.FEATURE_LAMBDA_NM.tolist(),
         "input_layout": [list(item) for item in INPUT_LAYOUT],
-        "preprocessing": {"fit_side": pose_fit.FIT_SIDE, "min_visibility": readout.MIN_VISIBILITY,
+        "preprocessing": {"fit_side": pose_fit.COARSE_SIDE, "min_visibility": readout.MIN_VISIBILITY,
                           "outlier_mads": readout.OUTLIER_MADS, "feature_step_nm": readout.FEATURE_STEP_NM,
                           "smoothness": solve.SMOOTHNESS, "model_error_floor": solve.MODEL_ERROR_FLOOR},
         "presets": _presets_digest(),

@@ -29,7 +29,7 @@ from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.photo.images import load_photo
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.learning.dataset import camera_split

@@ -24,7 +24,7 @@ from cd_spectra_addon.core.scene.capture import load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.photo.images import load_photo
-from cd_spectra_addon.core.pose.pose_fit import PoseFit
+from cd_spectra_addon.core.pose.result import PoseFit
 
 from training.simulation import photo
 from training.simulation.basis import basis_cube

@@ -2,7 +2,7 @@
 
 ``prepare`` is used by the estimator, the calibration shot, dataset building and solver/fusion
 tuning alike, so every product-side step — the saturated|invalid mask, the greyscale-photo
-camera collapse, the focal length from EXIF, the pose fit (:mod:`.general_pose`, any set-up:
+camera collapse, the focal length from EXIF, the pose fit (:mod:`..pose.fit`, any set-up:
 the preset is only its start), the calibration gains and the "no rainbow" refusal — also
 shapes the training data. ``physics_spd`` and ``network_inputs``
 are the next two steps, shared the same way: a dataset sample and a product estimate of the

@@ -276,13 +276,14 @@ class SelfConsistency:
     """Residuals (and their Jacobian) of a fixed pixel sample as a function of the pose.
 
     ``pose_of(x)`` maps parameters to a :class:`~..scene.relative_pose.RelativePose`;
-    ``blur_v`` widens the lobe for pixels that average a wider stretch of it (a downsampled
-    image: a box of width Δv on a Gaussian of width σ is about a Gaussian of width
+    ``blur_v`` (per pixel, or one for all) widens the lobe for pixels that average a stretch
+    Δv of it (a box of width Δv on a Gaussian of width σ is about a Gaussian of width
     √(σ² + Δv²/12) with its peak lowered to keep the area). Residuals are scaled by the
     sample's energy, so their squared sum is the share of it the pose cannot explain."""
 
     def __init__(self, values: NDArray[np.float64], rays: NDArray[np.float64], disc: Disc, grid: ProfileGrid,
-                 pose_of: Callable[[NDArray[np.float64]], RelativePose], edge_mm: float, blur_v: float = 0.0,
+                 pose_of: Callable[[NDArray[np.float64]], RelativePose], edge_mm: float,
+                 blur_v: float | NDArray[np.float64] = 0.0,
                  sigma_param: int | None = None):
         self.values = np.asarray(values, dtype=np.float64)
         self.rays = rays
@@ -290,7 +291,7 @@ class SelfConsistency:
         self.grid = grid
         self.pose_of = pose_of
         self.edge_mm = max(float(edge_mm), 1e-3)
-        self.blur_v2 = float(blur_v) ** 2 / 12.0
+        self.blur_v2 = np.asarray(blur_v, dtype=np.float64) ** 2 / 12.0
         self.sigma_param = sigma_param
         self.norm = 1.0 / math.sqrt(max(float(np.sum(self.values ** 2)), 1e-300))
         self.evaluations = 0
@@ -300,12 +301,12 @@ class SelfConsistency:
                                      directions=directions)
         disc = self.disc
         sigma2 = rel.lobe_sigma ** 2
-        se2 = sigma2 + self.blur_v2
+        se2 = sigma2 + (self.blur_v2[hit] if self.blur_v2.ndim else np.full(int(hit.sum()), float(self.blur_v2)))
         n = hit.size
         lam = np.zeros(n)
         amp = np.zeros(n)
         lam_h = geo.lambda1_nm(disc.pitch_um)
-        vis = np.exp(-(geo.v * geo.v) / (2.0 * se2)) * math.sqrt(sigma2 / se2)
+        vis = np.exp(-(geo.v * geo.v) / (2.0 * se2)) * np.sqrt(sigma2 / se2)
         r = geo.radius
         lo_ramp = (r - disc.grating_r_min_mm) / self.edge_mm + 0.5
         hi_ramp = (disc.grating_r_max_mm - r) / self.edge_mm + 0.5
@@ -351,7 +352,8 @@ class SelfConsistency:
         dlam_h = pitch_nm * np.sign(geo.u)[:, None] * du
         v = geo.v[:, None]
         # visibility: exp(−v²/2σe²)·σ/σe with σe² = σ² + b²
-        dlogvis = -v * dv / se2 + dmap[9][None, :] * ((v * v) * sigma2 / se2 ** 2 + (1.0 - sigma2 / se2))
+        s2 = se2[:, None]
+        dlogvis = -v * dv / s2 + dmap[9][None, :] * ((v * v) * sigma2 / s2 ** 2 + (1.0 - sigma2 / s2))
         de_lo = np.where((lo_ramp > 0) & (lo_ramp < 1), 1.0 / self.edge_mm, 0.0)[:, None] * dr
         de_hi = np.where((hi_ramp > 0) & (hi_ramp < 1), -1.0 / self.edge_mm, 0.0)[:, None] * dr
         dtaper = self.grid.taper_slope(geo.lambda1_nm(self.disc.pitch_um))[:, None] * dlam_h

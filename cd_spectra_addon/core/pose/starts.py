@@ -37,7 +37,7 @@ from ..scene.diffraction import pixel_diffraction
 from ..scene.kernel import turn_between
 from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis,
                                    nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
-                                   with_lamp_mirrored_at)
+                                   with_disc_centre_at, with_lamp_mirrored_at)
 from .rim_ellipse import Ellipse, circle_poses
 from .streak_colours import streak_fit
 
@@ -168,23 +168,66 @@ def symmetry_centre(lum: NDArray[np.floating]) -> tuple[float, float]:
 
 def rings_starts(ctx: StartContext) -> list[Start]:
     """A camera above the disc (near-axis presets): the rings' 180° symmetry centre is where the
-    disc mirrors the lamp. Two readings of it: the lamp moved so its mirror point is there (the
-    lamp placed off its stated spot), and the camera aimed so the disc centre is there (a camera
-    moved sideways). Why: a coaxial lamp 5 mm off moves the rings' centre 2.5 mm, and a start
-    with the rings centred elsewhere settles in a wrong ring (cd-default, lamp swung 3°: lamp
-    fitted on the far side, λ₁ 2.6 nm off)."""
+    disc mirrors the lamp. Three readings of it: the lamp moved so its mirror point is there (the
+    lamp placed off its stated spot); the camera aimed so the disc centre is there (a camera
+    turned); and, where the rainbow's outer edge shows a circle (the tracks end at their outer
+    radius), the disc centre at that circle's centre with the lamp mirrored at the symmetry
+    centre (a camera moved sideways). Why: a coaxial lamp 5 mm off moves the rings' centre
+    2.5 mm, and a start with the rings centred elsewhere settles in a wrong ring (cd-default,
+    lamp swung 3°: lamp fitted on the far side, λ₁ 2.6 nm off); a camera moved 2 mm sideways
+    was read from the preset as a tilted disc with the lamp moved (disc centre 2 px off)."""
     if not near_axis(ctx.preset):
         return []
     lum, factor = _small(ctx)
     r, c = symmetry_centre(lum)
-    rc = ((r + 0.5) * factor - 0.5, (c + 0.5) * factor - 0.5)
+
+    def full(rc: tuple[float, float]) -> tuple[float, float]:
+        return ((rc[0] + 0.5) * factor - 0.5, (rc[1] + 0.5) * factor - 0.5)
+
+    rings = full((r, c))
     nominal = ctx.nominal()
     out = []
-    moved = with_lamp_mirrored_at(nominal, rc, ctx.size, ctx.focal_px)
+    moved = with_lamp_mirrored_at(nominal, rings, ctx.size, ctx.focal_px)
     if moved is not None:
         out.append(Start("rings", moved))
-    out.append(Start("rings", aimed_at(nominal, rc, ctx.size, ctx.focal_px)))
+    out.append(Start("rings", aimed_at(nominal, rings, ctx.size, ctx.focal_px)))
+    edge = outer_edge_centre(lum, (r, c))
+    if edge is not None:
+        shifted = with_disc_centre_at(nominal, full(edge), ctx.size, ctx.focal_px)
+        shifted = shifted and with_lamp_mirrored_at(shifted, rings, ctx.size, ctx.focal_px)
+        if shifted is not None:
+            out.append(Start("rings", shifted))
     return out
+
+
+EDGE_LEVEL = 0.15  # of the photo's bright level: where the rainbow ends
+EDGE_SECTORS = 36
+MIN_EDGE_SECTORS = 18  # a circle needs edge points around most of it (full rings, not streaks)
+
+
+def outer_edge_centre(lum: NDArray[np.float64], around: tuple[float, float]) -> tuple[float, float] | None:
+    """Centre (row, col) of the circle through the rainbow's outermost bright pixel in each of
+    EDGE_SECTORS directions from ``around`` (a least-squares circle, Kåsa's), or None where too
+    few directions show an edge (streaks, not rings)."""
+    top = float(np.percentile(lum, 99.5))
+    if not top > 0:
+        return None
+    rows, cols = np.nonzero(lum > EDGE_LEVEL * top)
+    if rows.size < EDGE_SECTORS:
+        return None
+    dy, dx = rows - around[0], cols - around[1]
+    radius = np.hypot(dy, dx)
+    sector = ((np.arctan2(dy, dx) + math.pi) / (2 * math.pi) * EDGE_SECTORS).astype(np.int64) % EDGE_SECTORS
+    order = np.lexsort((radius, sector))
+    last = np.ones(order.size, dtype=bool)
+    last[:-1] = sector[order][1:] != sector[order][:-1]
+    edge = order[last]
+    if edge.size < MIN_EDGE_SECTORS:
+        return None
+    x, y = cols[edge].astype(np.float64), rows[edge].astype(np.float64)
+    a = np.stack([2 * x, 2 * y, np.ones_like(x)], axis=1)
+    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
+    return float(sol[1]), float(sol[0])
 
 
 def outline_starts(ctx: StartContext) -> list[Start]:

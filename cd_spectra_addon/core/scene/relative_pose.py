@@ -27,7 +27,7 @@ from .capture import Camera, Light, Pose, Preset, Scene
 from .kernel import camera_rays, diffraction_along, index_rays, project, rotation_about, rotation_xy, turn_between
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
-           "aimed_at", "mirror_point", "with_glint_at", "with_lamp_mirrored_at", "near_axis", "with_lamp_distance",
+           "aimed_at", "mirror_point", "with_glint_at", "with_lamp_mirrored_at", "with_disc_centre_at", "near_axis", "with_lamp_distance",
            "RayDiffraction", "ray_diffraction", "turned_in_plane", "plane_axis"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
@@ -137,6 +137,19 @@ def mirror_point(rel: RelativePose) -> NDArray[np.float64] | None:
         return None
     t = float(p @ n) / denom
     return image * t if t > 0 else None
+
+
+def with_disc_centre_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float
+                        ) -> RelativePose | None:
+    """``rel`` with the disc slid within its own plane (camera, lamp and tilt kept) so that its
+    centre appears at image point ``rc``: a disc centre misplaced on the table. None where that
+    ray misses the disc's plane."""
+    p, n = np.asarray(rel.disc_centre_mm, dtype=np.float64), np.asarray(rel.disc_normal, dtype=np.float64)
+    d = camera_rays(rc[0], rc[1], size, focal_px)
+    denom = float(d @ n)
+    if abs(denom) < 1e-12 or float(p @ n) / denom <= 0:
+        return None
+    return replace(rel, disc_centre_mm=d * (float(p @ n) / denom))
 
 
 def with_lamp_mirrored_at(rel: RelativePose, rc: tuple[float, float], size: tuple[int, int], focal_px: float
