@@ -38,7 +38,7 @@ from ..scene.kernel import camera_rays, diffraction_along, project
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .rim_ellipse import disc_base, disc_ellipse
-from .self_consistency import ProfileGrid, SelfConsistency
+from .self_consistency import ProfileGrid, SelfConsistency, footprint_v_span
 from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
 
 __all__ = ["fit_pose", "COARSE_SIDE", "STAGES"]
@@ -103,24 +103,11 @@ class _Level:
         return camera_rays(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, self.full_size, self.focal_px)
 
     def v_span(self, index: NDArray[np.int64], rel: RelativePose) -> NDArray[np.float64]:
-        """How much of the lobe's v each pixel spans (across its footprint, for the capture
-        ``rel``): the pixel averages the lobe over that stretch. Computed once per start — it
-        changes little with the pose — from v at the footprint's edges."""
+        """How much of the lobe's v each sampled pixel spans, for the capture ``rel``."""
         rows, cols = np.divmod(index, self.rgb.shape[1])
         f = self.factor
-        r, c = rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0
-        half = f / 2.0
-        spans = []
-        for dr, dc in ((half, 0.0), (0.0, half)):
-            vs = []
-            for sign in (1.0, -1.0):
-                hit, geo = diffraction_along(camera_rays(r + sign * dr, c + sign * dc, self.full_size, self.focal_px),
-                                             np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm)
-                v = np.zeros(index.size)
-                v[hit] = geo.v
-                vs.append(v)
-            spans.append(vs[0] - vs[1])
-        return np.hypot(spans[0], spans[1])
+        return footprint_v_span(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, f, self.full_size,
+                                self.focal_px, rel)
 
     def sample(self, count: int) -> NDArray[np.int64]:
         """Flat indices of up to ``count`` pixels (sorted): the brightest half, where the rainbow

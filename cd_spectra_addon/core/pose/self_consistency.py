@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import Disc
-from ..scene.kernel import diffraction_along
+from ..scene.kernel import camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
 
@@ -42,7 +42,8 @@ RIDGE = 1e-9  # relative to the largest node weight: nodes without pixels stay d
 # line (a jump of P over one node) a thousandth of its own weight.
 SMOOTH = 1e-3
 
-__all__ = ["ProfileGrid", "profile_residuals", "solve_tridiagonal", "SelfConsistency", "TINY_AMPLITUDE"]
+__all__ = ["ProfileGrid", "profile_residuals", "solve_tridiagonal", "SelfConsistency", "TINY_AMPLITUDE",
+           "footprint_v_span"]
 
 
 class ProfileGrid:
@@ -159,8 +160,8 @@ class _Fit:
         # terms are unchanged), and a pose whose lobe is ~1e-155 everywhere no longer underflows the
         # pivots. Only then: scaling every call changes the rounding.
         peak = float(np.max(a)) if a.size else 0.0
-        self.scale = 1.0 / peak if 0.0 < peak < TINY_AMPLITUDE else 1.0
-        a = a * self.scale
+        self.divisor = peak if 0.0 < peak < TINY_AMPLITUDE else 1.0
+        a = a / self.divisor
         self.a = a
         self.w0, self.w1 = a * (1.0 - self.f), a * self.f
         n = grid.size
@@ -232,9 +233,9 @@ def _profile_jacobian(values: NDArray[np.float64], fit: _Fit, grid: ProfileGrid,
     """∂(profile_residuals)/∂θ given ∂λ₁ and ∂amplitude per pixel ((n, K) each): the exact
     derivative of the variable projection (the profile re-fitted at every pose)."""
     n_px, k = dlam.shape
-    s = fit.scale
+    s = fit.divisor
     dlam = np.where(fit.inside[:, None], dlam, 0.0)
-    damp = np.where(fit.inside[:, None], damp * s, 0.0)
+    damp = np.where(fit.inside[:, None], damp / s, 0.0)
     df = dlam / grid.step
     dw0 = damp * (1.0 - fit.f)[:, None] - fit.a[:, None] * df
     dw1 = damp * fit.f[:, None] + fit.a[:, None] * df
@@ -368,3 +369,23 @@ class SelfConsistency:
         damp[hit] = damp_h
         fit = _Fit(self.values, lam, amp, self.grid)
         return _profile_jacobian(self.values, fit, self.grid, dlam, damp) * self.norm
+
+
+def footprint_v_span(rows: NDArray[np.float64], cols: NDArray[np.float64], width_px: float, size: tuple[int, int],
+                     focal_px: float, rel: RelativePose) -> NDArray[np.float64]:
+    """How much of the lobe's v a pixel spans: pixels centred at (rows, cols) and ``width_px``
+    wide average the lobe over that stretch (:class:`SelfConsistency`'s ``blur_v``), from v at
+    the footprint's edges for the capture ``rel``. A coaxial lamp's lobe barely changes across
+    a pixel; a streak's crosses it in a pixel or two."""
+    half = width_px / 2.0
+    spans = []
+    for dr, dc in ((half, 0.0), (0.0, half)):
+        vs = []
+        for sign in (1.0, -1.0):
+            hit, geo = diffraction_along(camera_rays(rows + sign * dr, cols + sign * dc, size, focal_px), np.zeros(3),
+                                         rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm)
+            v = np.zeros(np.size(rows))
+            v[hit] = geo.v
+            vs.append(v)
+        spans.append(vs[0] - vs[1])
+    return np.hypot(spans[0], spans[1])
