@@ -56,8 +56,8 @@ TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit eac
 # an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
 FREE = np.array([0, 1, 2, 3, 4, 5, 7])
 UNTILTED = np.array([0, 1, 4, 5, 7])  # the same without the disc's tilt
-LM_ITERATIONS = (15, 12)  # per stage: most of a fit's progress is in its first steps
-LM_TOL = (1e-3, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
+LM_ITERATIONS = (30, 12)  # per stage: most of a fit's progress is in its first steps
+LM_TOL = (1e-4, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
 PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
 PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log lamp distance, log σ
 # The start strategies in the order they are tried, cheapest first; the fit stops after the second
@@ -65,7 +65,7 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # first alone it did not: from the preset, LM can end in a neighbouring minimum that explains the
 # photo nearly as well — cd-default, camera moved 2 mm: twice the true cost, disc centre 2 px off —
 # and the rings' own centre, one tier on, starts in the right one.)
-TIERS = (("preset",), ("pattern", "outline", "rings"), ("colours",), ESCALATIONS)
+TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours",), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
 _DEBUG = bool(os.environ.get("CDS_POSE_DEBUG"))
 
@@ -271,7 +271,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         return _Problem(sample, start, preset, grids[key])
 
     fits: list[_Fitted] = []
-    fitted_from: list[RelativePose] = []  # the captures LM has started from, and where it ended
+    visited: list[tuple[RelativePose, float]] = []  # where LM started (cost ∞) and ended (its cost)
     oblique = not near_axis(preset)
     for k, tier in enumerate(TIERS):
         names = [name for name in tier if name in strategies or name in escalations]
@@ -298,12 +298,13 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
             evals += p.evaluations
         scored.sort(key=lambda item: item[0])
         tried = 0
-        for _, s in scored:
+        for initial, s in scored:
             if tried == TRIED_STARTS:
                 break
-            if any(_same_capture(s.capture, seen, size, focal_px) for seen in fitted_from):
+            if any(initial >= seen_cost and _same_capture(s.capture, seen, size, focal_px)
+                   for seen, seen_cost in visited):
                 continue  # LM from here would find what it found from there
-            fitted_from.append(s.capture)
+            visited.append((s.capture, math.inf))
             tried += 1
             p = problem(s.pose)
             x = s.params
@@ -316,7 +317,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
             x, cost = p.fit(x, LM_ITERATIONS[0], LM_TOL[0])
             evals += p.evaluations
             fits.append(_Fitted(cost, s, x))
-            fitted_from.append(fits[-1].capture)
+            visited.append((fits[-1].capture, cost))
         fits.sort(key=lambda fit: fit.cost)
         clock.lap("+".join(names))
         if _DEBUG:

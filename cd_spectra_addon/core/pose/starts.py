@@ -13,6 +13,8 @@ name, so an evaluation can run or leave out any of them by name and a test can c
   (:mod:`.rim_ellipse`), the lamp kept where the preset puts it relative to the disc.
 - ``rings``: for a camera above the disc, the rings' 180° symmetry centre read as the lamp's mirror
   point, or as the disc centre.
+- ``glint``: where the zero-order glint is seen (clipped), the preset's capture with the disc
+  tilted so that it mirrors the lamp there.
 - ``colours``: each of those moved by the rainbow's own colours (:mod:`.streak_colours`): each
   bright pixel's hue names its λ₁, a smooth fit good from far away.
 - ``glint-line`` (escalation): where the zero-order glint is seen (clipped), captures that mirror
@@ -256,6 +258,23 @@ def colour_starts(ctx: StartContext) -> list[Start]:
     return out
 
 
+def glint_starts(ctx: StartContext) -> list[Start]:
+    """Where the zero-order glint is seen (clipped), the preset's capture with the disc tilted so
+    that it mirrors the lamp exactly there: a tilted disc read off its glint. (The glint's line,
+    an escalation, also slides the disc centre along the arcs.)"""
+    glint = _seen_glint(ctx)
+    if glint is None:
+        return []
+    tilted = with_glint_at(ctx.nominal(), glint, ctx.size, ctx.focal_px)
+    return [] if tilted is None else [Start("glint", tilted)]
+
+
+def _seen_glint(ctx: StartContext) -> tuple[float, float] | None:
+    if ctx.saturated is None or not np.any(ctx.saturated):
+        return None
+    return glint_px(ctx.rgb, np.asarray(ctx.saturated))
+
+
 def axis_of_arcs(lum: NDArray[np.float64], centre: tuple[float, float], r_min: float, r_max: float
                  ) -> tuple[float, float]:
     """Angle of the line the rainbow concentrates on, and how strongly (0 = full rings, 1 = two
@@ -289,9 +308,7 @@ def glint_line_starts(ctx: StartContext) -> list[Start]:
     the rings become arcs about it. A centre 2 mm off along the arcs costs 20–30× the true one,
     and LM from there settles 0.3° off in the aim, where the track edges cut the rings in the
     wrong places (synthetic spectra: λ₁ 1 nm off, MAE 0.26 against 0.06 from the true pose)."""
-    if ctx.saturated is None or not np.any(ctx.saturated) or ctx.cost is None:
-        return []
-    glint = glint_px(ctx.rgb, np.asarray(ctx.saturated))
+    glint = _seen_glint(ctx) if ctx.cost is not None else None
     if glint is None:
         return []
     lum, factor = _small(ctx)
@@ -361,7 +378,7 @@ def in_plane_starts(ctx: StartContext) -> list[Start]:
     if ctx.cost is None:
         return []
     out = []
-    for base in _line_bases(ctx)[:1]:
+    for base in _line_bases(ctx):
         found = _valley(ctx.cost, base)
         if found is not None:
             out.append(Start("in-plane", found))
@@ -408,9 +425,10 @@ STRATEGIES: dict[str, Callable[[StartContext], list[Start]]] = {
     "pattern": pattern_start,
     "outline": outline_starts,
     "rings": rings_starts,
+    "glint": glint_starts,
     "colours": colour_starts,
     "glint-line": glint_line_starts,
     "in-plane": in_plane_starts,
 }
-CHEAP = ("preset", "pattern", "outline", "rings", "colours")
+CHEAP = ("preset", "pattern", "outline", "rings", "glint", "colours")
 ESCALATIONS = ("glint-line", "in-plane")
