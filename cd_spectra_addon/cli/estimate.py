@@ -44,24 +44,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
     try:
-        from ..core.inverse.estimate import estimate_photo
+        from ..core.inverse.batch import estimate_photos
     except ImportError as exc:
         raise UsageError(f"this build has no estimator ({exc})") from exc
-    results = []
-    show = sys.stderr.isatty() if args.progress is None else args.progress
-    many = show and len(args.photos) > 1
-    for i, photo in enumerate(args.photos, 1):
+    for photo in args.photos:
         try:
             photo.stat()
         except FileNotFoundError:
             raise UsageError(f"{photo}: no such file") from None
         except OSError as exc:  # e.g. a name too long for the file system
             raise UsageError(f"{photo}: cannot access the file ({exc.strerror or exc})") from None
+    results: list[dict[str, Any]] = []
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+    many = show and len(args.photos) > 1
+    estimates = estimate_photos([str(p) for p in args.photos], preset=args.preset, camera=args.camera,
+                                calibration=args.calibration)
+    while len(results) < len(args.photos):
+        photo = args.photos[len(results)]
         if many:
-            progress(f"[{i}/{len(args.photos)}] {photo}")
+            progress(f"[{len(results) + 1}/{len(args.photos)}] {photo}")
         try:
-            estimate = estimate_photo(str(photo), preset=args.preset, camera=args.camera,
-                                      calibration=args.calibration)
+            estimate = next(estimates)
         except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
             message = str(exc)  # the loader's messages already start with the path: say it once
             raise UsageError(message if message.startswith(str(photo)) else f"{photo}: {message}") from exc
