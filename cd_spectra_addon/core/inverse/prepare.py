@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..readout.ambient import dark_offset, rough_offset
+from ..readout.ambient import dark_offset, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration
 from ..spectra.cameras import CameraProfile
 from ..scene.capture import Preset, Scene
 from ..planning.capture_advice import advice_for_photo
-from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..readout.forward_matrix import bin_response, feature_matrix
 from ..photo.images import LinearImage
@@ -132,10 +132,12 @@ def prepare(
                                saturated=saturated)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
-    if pixels is None:
-        pixels = pixel_diffraction(scene)
-    ambient = dark_offset(rgb, scene, saturated, pixels)
-    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene, pixels)
+    # Without a cache, the kernel is evaluated only where the lobe can be visible or the dark
+    # is uncertain: the same readout and offset as from every pixel (tests/test_pixel_survey.py).
+    lobe: PixelDiffraction | LobePixels = readout_pixels(scene) if pixels is None else pixels
+    ambient = dark_offset(rgb, scene, saturated, lobe)
+    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene,
+                               lobe.pixels if isinstance(lobe, LobePixels) else lobe)
     t2 = time.perf_counter()
     readout = _with_gains(measured, calibration)
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:

@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import Scene
-from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+from ..scene.diffraction import LobePixels, PixelDiffraction, lobe_pixels
+from ..spectra.grid import MIN_VISIBILITY
 
 # Offsets below this share of full scale are left alone: an 8-bit photo's dark noise floor
 # (1 % noise → read noise 0.002) and its quantisation are about this size, and a nominal photo
@@ -23,8 +24,9 @@ MIN_OFFSET = 0.003
 ROUGH_PERCENTILE = 10.0  # before the pose is known: a low percentile of the whole photo
 MIN_DARK_PIXELS = 200
 INVISIBLE = 1e-4  # lobe visibility below which a pixel carries no diffracted light
+GLINT_UV = 0.05  # hypot(u, v) within which a pixel may show the mirror glint or its halo
 
-__all__ = ["MIN_OFFSET", "rough_offset", "dark_offset"]
+__all__ = ["MIN_OFFSET", "rough_offset", "dark_offset", "readout_pixels"]
 
 
 def _significant(offset: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -43,19 +45,37 @@ def rough_offset(rgb: NDArray[np.float64], excluded: NDArray[np.bool_] | None = 
     return _significant(np.percentile(flat, ROUGH_PERCENTILE, axis=0))
 
 
+def readout_pixels(scene: Scene, min_visibility: float = MIN_VISIBILITY) -> LobePixels:
+    """The scene's pixels that the readout reads (visibility ≥ ``min_visibility``) and those the
+    offset is measured on, with the kernel evaluated only where it must be (:func:`lobe_pixels`)."""
+    return lobe_pixels(scene, min_visibility, INVISIBLE, GLINT_UV)
+
+
+def _subset(px: PixelDiffraction, keep: NDArray[np.bool_]) -> PixelDiffraction:
+    return PixelDiffraction(**{k: v[keep] for k, v in px.__dict__.items()})
+
+
 def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
-                pixels: PixelDiffraction | None = None) -> NDArray[np.float64]:
+                pixels: PixelDiffraction | LobePixels | None = None) -> NDArray[np.float64]:
     """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
     such pixels or the offset is insignificant). ``pixels``: the scene's diffraction coordinates
-    of all its disc pixels, where the caller has them."""
-    px = pixel_diffraction(scene) if pixels is None else pixels
+    of all its disc pixels, or its :func:`readout_pixels`, where the caller has them."""
+    lobe = readout_pixels(scene) if pixels is None else pixels
+    px = lobe.pixels if isinstance(lobe, LobePixels) else lobe
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
-    ok = np.ones(px.index.size, dtype=bool) if excluded is None else ~np.asarray(excluded).reshape(-1)[px.index]
-    glint = np.hypot(px.u, px.v) < 0.05  # well clear of the mirror glint and its halo
-    dark = ok & ~glint & px.on_tracks & (px.visibility < INVISIBLE)
-    if int(np.sum(dark)) < MIN_DARK_PIXELS:
-        disc = scene.preset.disc
-        dark = ok & ~glint & (px.radius_mm < disc.grating_r_min_mm - 1.0)
-    if int(np.sum(dark)) < MIN_DARK_PIXELS:
+    mask = None if excluded is None else np.asarray(excluded).reshape(-1)
+
+    def usable(index: NDArray[np.int64]) -> NDArray[np.bool_]:
+        return np.ones(index.size, dtype=bool) if mask is None else ~mask[index]
+
+    glint = np.hypot(px.u, px.v) < GLINT_UV  # well clear of the mirror glint and its halo
+    dark = px.index[usable(px.index) & ~glint & px.on_tracks & (px.visibility < INVISIBLE)]
+    if isinstance(lobe, LobePixels):  # and the pixels the survey found dark without evaluating them
+        dark = np.concatenate([dark, lobe.dark[usable(lobe.dark)]])
+    if dark.size < MIN_DARK_PIXELS:
+        hub_mm = scene.preset.disc.grating_r_min_mm - 1.0
+        hub = lobe.within_radius(hub_mm) if isinstance(lobe, LobePixels) else _subset(px, px.radius_mm < hub_mm)
+        dark = hub.index[usable(hub.index) & ~(np.hypot(hub.u, hub.v) < GLINT_UV)]
+    if dark.size < MIN_DARK_PIXELS:
         return np.zeros(3)
-    return _significant(np.median(flat[px.index[dark]], axis=0))
+    return _significant(np.median(flat[dark], axis=0))
