@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from .prepare import focal_px_for
 from ..scene.capture import Preset, Scene
-from ..photo.images import LinearImage, load_photo
+from ..photo.images import LinearImage, PhotoReader
 
 PREVIEW_SIDE = 1024  # the first, whole-frame read
 DISC_MIN_PX = 400  # a disc this wide in the preview is read as it is
@@ -68,22 +68,26 @@ def disc_half_extent(image: LinearImage, preset: Preset) -> tuple[float, float, 
 
 
 def _bright(rgb: NDArray[np.floating]) -> NDArray[np.bool_]:
-    lum = np.asarray(rgb, dtype=np.float32).sum(axis=2)
+    a = np.asarray(rgb, dtype=np.float32)
+    lum = a[..., 0] + a[..., 1] + a[..., 2]  # = a.sum(axis=2), bit for bit, ~15× faster
     peak = float(lum.max())
     return lum > BRIGHT_SHARE * peak if peak > 0 else np.zeros(lum.shape, bool)
 
 
 def load_for_estimate(path: str | Path, preset: Preset) -> LinearImage:
     """The photo as the estimate reads it: the preview, or the window around a small disc
-    (see the module doc)."""
-    preview = load_photo(path, max_side=PREVIEW_SIDE)
-    if preview.scale <= 1.0:
-        return preview  # already every pixel the file has
-    hx, hy, diameter = disc_half_extent(preview, preset)
-    if diameter >= DISC_MIN_PX:
-        return preview
-    scale = max(1.0, float(round(preview.scale * diameter / DISC_TARGET_PX)))
-    if scale >= preview.scale:
-        return preview
-    half = (hx * preview.scale, hy * preview.scale)
-    return load_photo(path, max_side=int(math.ceil(2.0 * max(half) / scale)), centre_crop_px=half)
+    (see the module doc). One reader: a window at the preview's JPEG draft scale (or from any
+    format that decodes whole) reuses the preview's decode, and only the image returned is
+    judged for camera processing."""
+    with PhotoReader(path) as reader:
+        preview = reader.load(PREVIEW_SIDE, judge=False)
+        if preview.scale <= 1.0:
+            return reader.judge(preview)  # already every pixel the file has
+        hx, hy, diameter = disc_half_extent(preview, preset)
+        if diameter >= DISC_MIN_PX:
+            return reader.judge(preview)
+        scale = max(1.0, float(round(preview.scale * diameter / DISC_TARGET_PX)))
+        if scale >= preview.scale:
+            return reader.judge(preview)
+        half = (hx * preview.scale, hy * preview.scale)
+        return reader.load(int(math.ceil(2.0 * max(half) / scale)), centre_crop_px=half)
