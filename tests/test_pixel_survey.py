@@ -19,6 +19,7 @@ from cd_spectra_addon.core.inverse.prepare import prepare
 from cd_spectra_addon.core.photo.image_formats import ExifInfo
 from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.pose.result import PoseFit
+from cd_spectra_addon.core.readout import ambient
 from cd_spectra_addon.core.readout.ambient import GLINT_UV, INVISIBLE, dark_offset, readout_pixels
 from cd_spectra_addon.core.readout.readout import MIN_VISIBILITY, extract_readout
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
@@ -111,3 +112,24 @@ def test_a_rendered_photo_reads_the_same_from_the_survey_as_from_every_pixel(nam
     b = prepare(image, scene.preset, camera, fit=fit)
     assert np.array_equal(a.ambient, b.ambient)
     assert np.array_equal(a.readout.values, b.readout.values) and np.array_equal(a.matrix, b.matrix)
+
+
+def test_an_offset_is_called_insignificant_only_where_the_percentile_would_be():
+    """The ambient shortcut (a count instead of a selection) never zeroes an offset the
+    percentile or the median would have kept — at the threshold, with NaNs and masks."""
+    rng = np.random.default_rng(0)
+    for trial in range(2000):
+        n = int(rng.integers(1, 60))
+        flat = rng.random((n, 3)) * (1e-4, 1e-3, 3e-3, 1e-2)[trial % 4]
+        if trial % 7 == 0:
+            flat[:, 1] = ambient.MIN_OFFSET * (1 - 1e-15)
+        if trial % 11 == 0:
+            flat[rng.integers(0, n)] = np.nan
+        keep = rng.random(n) < 0.8 if trial % 2 else None
+        rows = flat if keep is None else flat[keep]
+        if rows.shape[0] == 0:
+            continue
+        for percent, full in ((ambient.ROUGH_PERCENTILE, np.percentile(rows, ambient.ROUGH_PERCENTILE, axis=0)),
+                              (50.0, np.median(rows, axis=0))):
+            if ambient._insignificant(flat, keep, percent):
+                assert not np.any(ambient._significant(full)), (trial, percent)

@@ -10,6 +10,8 @@ reaches the lens), else on the clear hub between the hole and the tracks.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -38,11 +40,32 @@ def rough_offset(rgb: NDArray[np.float64], excluded: NDArray[np.bool_] | None = 
     """Per-channel offset from the darkest tenth of the photo (for the pose fit, before the
     geometry is known; it underestimates a uniform offset slightly, never overstates it)."""
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
-    if excluded is not None:
-        flat = flat[~np.asarray(excluded).reshape(-1)]
+    keep = None if excluded is None else ~np.asarray(excluded).reshape(-1)
+    if _insignificant(flat, keep, ROUGH_PERCENTILE):
+        return np.zeros(3)
+    if keep is not None:
+        flat = flat[keep]
     if flat.shape[0] == 0:
         return np.zeros(3)
     return _significant(np.percentile(flat, ROUGH_PERCENTILE, axis=0))
+
+
+def _insignificant(flat: NDArray[np.float64], keep: NDArray[np.bool_] | None, percent: float) -> bool:
+    """Whether every column's ``percent`` percentile over the kept rows is certainly below
+    MIN_OFFSET, so :func:`_significant` would zero it: both order statistics it interpolates
+    between (for the median, averages) are. One comparison pass instead of a selection: a
+    dark room's photo (the usual case) skips the percentile (~15–50 ms for 0.4–0.9 MP)."""
+    n = flat.shape[0] if keep is None else int(np.count_nonzero(keep))
+    if n == 0:
+        return False
+    # Rank of the higher order statistic, one beyond numpy's in case its float index rounds up.
+    upper = min(int(math.floor((n - 1) * percent / 100.0)) + 2, n - 1)
+    limit = MIN_OFFSET * (1.0 - 1e-9)  # an interpolation of values below it stays below MIN_OFFSET
+    for c in range(flat.shape[1]):
+        below = flat[:, c] < limit
+        if np.count_nonzero(below if keep is None else below & keep) <= upper:
+            return False
+    return True
 
 
 def readout_pixels(scene: Scene, min_visibility: float = MIN_VISIBILITY) -> LobePixels:
@@ -78,4 +101,7 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
         dark = hub.index[usable(hub.index) & ~(np.hypot(hub.u, hub.v) < GLINT_UV)]
     if dark.size < MIN_DARK_PIXELS:
         return np.zeros(3)
-    return _significant(np.median(flat[dark], axis=0))
+    values = flat[dark]
+    if _insignificant(values, None, 50.0):
+        return np.zeros(3)
+    return _significant(np.median(values, axis=0))
