@@ -74,10 +74,6 @@ def readout_pixels(scene: Scene, min_visibility: float = MIN_VISIBILITY) -> Lobe
     return lobe_pixels(scene, min_visibility, INVISIBLE, GLINT_UV)
 
 
-def _subset(px: PixelDiffraction, keep: NDArray[np.bool_]) -> PixelDiffraction:
-    return PixelDiffraction(**{k: v[keep] for k, v in px.__dict__.items()})
-
-
 def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
                 pixels: PixelDiffraction | LobePixels | None = None) -> NDArray[np.float64]:
     """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
@@ -97,7 +93,7 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
         dark = np.concatenate([dark, lobe.dark[usable(lobe.dark)]])
     if dark.size < MIN_DARK_PIXELS:
         hub_mm = scene.preset.disc.grating_r_min_mm - 1.0
-        hub = lobe.within_radius(hub_mm) if isinstance(lobe, LobePixels) else _subset(px, px.radius_mm < hub_mm)
+        hub = lobe.within_radius(hub_mm) if isinstance(lobe, LobePixels) else px.select(px.radius_mm < hub_mm)
         dark = hub.index[usable(hub.index) & ~(np.hypot(hub.u, hub.v) < GLINT_UV)]
     if dark.size < MIN_DARK_PIXELS:
         return np.zeros(3)

@@ -42,6 +42,12 @@ class PixelDiffraction:
         """What a unit of λ₁-profile becomes at this pixel: visibility × geometric gain."""
         return self.visibility * self.gain
 
+    def select(self, which: NDArray[np.intp] | NDArray[np.bool_]) -> PixelDiffraction:
+        """The pixels at positions ``which`` (indices, or a mask over the pixels). By
+        ``np.take``: for the (n, 3) arrays ~3× faster than fancy indexing, the same values."""
+        sel = np.flatnonzero(which) if np.asarray(which).dtype == bool else which
+        return PixelDiffraction(**{k: np.take(v, sel, axis=0) for k, v in self.__dict__.items()})
+
 
 def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
                       rows: NDArray[np.float64] | None = None,
@@ -67,17 +73,18 @@ def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
     keep = np.flatnonzero(on_disc)
     sigma = scene.preset.light.lobe_sigma
     u, v = geo.u[keep], geo.v[keep]
+    radius_mm = radius_mm[keep]
     return PixelDiffraction(
         index=index[np.flatnonzero(hit)[keep]],
         lambda1_nm=np.abs(u) * disc.pitch_um * 1e3,
         visibility=np.exp(-(v * v) / (2.0 * sigma * sigma)),
         gain=geo.gain[keep],
-        radius_mm=radius_mm[keep],
-        on_tracks=(radius_mm[keep] >= disc.grating_r_min_mm) & (radius_mm[keep] <= disc.grating_r_max_mm),
+        radius_mm=radius_mm,
+        on_tracks=(radius_mm >= disc.grating_r_min_mm) & (radius_mm <= disc.grating_r_max_mm),
         u=u,
         v=v,
-        points=geo.points[keep],
-        view=geo.view[keep],
+        points=np.take(geo.points, keep, axis=0),
+        view=np.take(geo.view, keep, axis=0),
     )
 
 
@@ -179,8 +186,7 @@ class LobePixels:
         lo = self.survey.radius_mm[0]
         more = ~self.evaluated & self.survey.may_be_on_disc() & (self.survey.unsure | (lo < radius_mm * (1 + _MARGIN)))
         extra = pixel_diffraction(self.survey.scene, self.survey.pixel_index(more))
-        parts = [PixelDiffraction(**{k: v[self.pixels.radius_mm < radius_mm] for k, v in self.pixels.__dict__.items()}),
-                 PixelDiffraction(**{k: v[extra.radius_mm < radius_mm] for k, v in extra.__dict__.items()})]
+        parts = [self.pixels.select(self.pixels.radius_mm < radius_mm), extra.select(extra.radius_mm < radius_mm)]
         return PixelDiffraction(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in parts[0].__dict__})
 
 
