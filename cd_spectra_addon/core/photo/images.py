@@ -395,6 +395,14 @@ class _Opened:
 
 def _windowed(pixels: Pixels, x0: int, y0: int, width: int, height: int) -> Pixels:
     """The same decoded pixels seen through a window (rows are still read in bands)."""
+    box = pixels.read_box
+    if box is not None:
+        def read_box(a: int, b: int, c: int, d: int) -> NDArray[Any]:
+            return box(y0 + a, y0 + b, x0 + c, x0 + d)
+
+        return Pixels(width, height, pixels.channels, pixels.bits, pixels.draft,
+                      lambda a, b: read_box(a, b, 0, width), read_box)
+
     def read(a: int, b: int) -> NDArray[Any]:
         return pixels.read(y0 + a, y0 + b)[:, x0: x0 + width]
 
