@@ -21,9 +21,10 @@ from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.readout import ambient
 from cd_spectra_addon.core.readout.ambient import GLINT_UV, INVISIBLE, dark_offset, readout_pixels
-from cd_spectra_addon.core.readout.readout import MIN_VISIBILITY, extract_readout
+from cd_spectra_addon.core.readout.readout import MIN_VISIBILITY, N_FEATURES, extract_readout
+from cd_spectra_addon.core.spectra.grid import feature_bins
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.scene.diffraction import PixelDiffraction, lobe_pixels, pixel_diffraction
+from cd_spectra_addon.core.scene.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
@@ -50,10 +51,6 @@ def _same(a: PixelDiffraction, b: PixelDiffraction) -> bool:
     return all(np.array_equal(getattr(a, k), getattr(b, k)) for k in a.__dict__)
 
 
-def _subset(px: PixelDiffraction, keep: np.ndarray) -> PixelDiffraction:
-    return PixelDiffraction(**{k: v[keep] for k, v in px.__dict__.items()})
-
-
 def _dark(px: PixelDiffraction) -> np.ndarray:
     return px.on_tracks & (px.visibility < INVISIBLE) & ~(np.hypot(px.u, px.v) < GLINT_UV)
 
@@ -64,19 +61,26 @@ def _dark(px: PixelDiffraction) -> np.ndarray:
 def test_the_survey_finds_exactly_the_visible_and_the_dark_pixels(name, framing, side):
     scene = Scene(load_preset(name).with_image_size(side)) if framing == "preset" else _zoomed(name, side)
     full = pixel_diffraction(scene)
-    lobe = lobe_pixels(scene, MIN_VISIBILITY, INVISIBLE, GLINT_UV)
+    lobe = readout_pixels(scene)
     got = lobe.pixels
     assert np.all(np.diff(got.index) > 0)  # ascending, as over every pixel: the readout's sums add in that order
-    # Every visible pixel, with the kernel's values bit for bit.
-    assert _same(_subset(got, got.visibility >= MIN_VISIBILITY), _subset(full, full.visibility >= MIN_VISIBILITY))
+    # Every pixel the readout can read, with the kernel's values bit for bit.
+    b = feature_bins(full.lambda1_nm)
+    read = full.on_tracks & (full.visibility >= MIN_VISIBILITY) & (b >= 0) & (b < N_FEATURES)
+    b = feature_bins(got.lambda1_nm)
+    assert _same(got.select(got.on_tracks & (got.visibility >= MIN_VISIBILITY) & (b >= 0) & (b < N_FEATURES)),
+                 full.select(read))
     # Evaluated pixels are the kernel's own values wherever they are.
     at = np.searchsorted(full.index, got.index)
-    assert np.array_equal(full.index[at], got.index) and _same(got, _subset(full, at))
+    assert np.array_equal(full.index[at], got.index) and _same(got, full.select(at))
     # Dark pixels: the evaluated ones that are, and the ones the survey vouched for.
     assert np.intersect1d(lobe.dark, got.index).size == 0
     assert np.array_equal(np.sort(np.concatenate([got.index[_dark(got)], lobe.dark])), full.index[_dark(full)])
-    hub = lobe.within_radius(scene.preset.disc.grating_r_min_mm - 1.0)
-    assert np.array_equal(np.sort(hub.index), full.index[full.radius_mm < scene.preset.disc.grating_r_min_mm - 1.0])
+    # The hub, clear of the glint (the offset's fallback).
+    r = scene.preset.disc.grating_r_min_mm - 1.0
+    hub = lobe.hub(r)
+    assert np.unique(hub).size == hub.size
+    assert np.array_equal(np.sort(hub), full.index[(full.radius_mm < r) & ~(np.hypot(full.u, full.v) < GLINT_UV)])
     if name != "cd-default" and framing == "zoomed":  # a coaxial lamp lights the whole disc: nothing to skip
         assert got.index.size < 0.4 * full.index.size
 

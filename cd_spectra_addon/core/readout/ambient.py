@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ..scene.capture import Scene
 from ..scene.diffraction import LobePixels, PixelDiffraction, lobe_pixels
-from ..spectra.grid import MIN_VISIBILITY
+from ..spectra.grid import FEATURE_EDGE_NM, FEATURE_STEP_NM, MIN_VISIBILITY, N_FEATURES
 
 # Offsets below this share of full scale are left alone: an 8-bit photo's dark noise floor
 # (1 % noise → read noise 0.002) and its quantisation are about this size, and a nominal photo
@@ -69,9 +69,11 @@ def _insignificant(flat: NDArray[np.float64], keep: NDArray[np.bool_] | None, pe
 
 
 def readout_pixels(scene: Scene, min_visibility: float = MIN_VISIBILITY) -> LobePixels:
-    """The scene's pixels that the readout reads (visibility ≥ ``min_visibility``) and those the
-    offset is measured on, with the kernel evaluated only where it must be (:func:`lobe_pixels`)."""
-    return lobe_pixels(scene, min_visibility, INVISIBLE, GLINT_UV)
+    """The scene's pixels that the readout reads (on the tracks, visibility ≥ ``min_visibility``,
+    λ₁ on the feature grid) and those the offset is measured on, with the kernel evaluated only
+    where it must be (:func:`lobe_pixels`)."""
+    return lobe_pixels(scene, min_visibility, INVISIBLE, GLINT_UV,
+                       lambda_nm=(FEATURE_EDGE_NM, FEATURE_EDGE_NM + N_FEATURES * FEATURE_STEP_NM))
 
 
 def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
@@ -93,8 +95,11 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
         dark = np.concatenate([dark, lobe.dark[usable(lobe.dark)]])
     if dark.size < MIN_DARK_PIXELS:
         hub_mm = scene.preset.disc.grating_r_min_mm - 1.0
-        hub = lobe.within_radius(hub_mm) if isinstance(lobe, LobePixels) else px.select(px.radius_mm < hub_mm)
-        dark = hub.index[usable(hub.index) & ~(np.hypot(hub.u, hub.v) < GLINT_UV)]
+        if isinstance(lobe, LobePixels):
+            dark = lobe.hub(hub_mm)
+        else:
+            dark = px.index[(px.radius_mm < hub_mm) & ~(np.hypot(px.u, px.v) < GLINT_UV)]
+        dark = dark[usable(dark)]
     if dark.size < MIN_DARK_PIXELS:
         return np.zeros(3)
     values = flat[dark]

@@ -175,29 +175,38 @@ def survey_blocks(scene: Scene, block: int = SURVEY_BLOCK) -> BlockSurvey:
 class LobePixels:
     """The disc's pixels sorted by what the readout asks of them (see :func:`lobe_pixels`)."""
 
-    pixels: PixelDiffraction  # evaluated: every disc pixel that may be visible, or may be dark (ascending index)
+    pixels: PixelDiffraction  # evaluated: every pixel that may be read, or may be dark (ascending index)
     dark: NDArray[np.int64]  # not evaluated: on-track pixels certainly dark and clear of the glint (ascending)
     survey: BlockSurvey
     evaluated: NDArray[np.bool_]  # the blocks whose pixels are in ``pixels``
+    clear_uv: float
 
-    def within_radius(self, radius_mm: float) -> PixelDiffraction:
-        """Every disc pixel closer to the centre than ``radius_mm`` (evaluating blocks not yet
-        evaluated where needed), in no particular order."""
-        lo = self.survey.radius_mm[0]
-        more = ~self.evaluated & self.survey.may_be_on_disc() & (self.survey.unsure | (lo < radius_mm * (1 + _MARGIN)))
-        extra = pixel_diffraction(self.survey.scene, self.survey.pixel_index(more))
-        parts = [self.pixels.select(self.pixels.radius_mm < radius_mm), extra.select(extra.radius_mm < radius_mm)]
-        return PixelDiffraction(**{k: np.concatenate([getattr(p, k) for p in parts]) for k in parts[0].__dict__})
+    def hub(self, radius_mm: float) -> NDArray[np.int64]:
+        """Flat indices (in no particular order) of every disc pixel closer to the centre than
+        ``radius_mm`` and clear of the glint (hypot(u, v) ≥ ``clear_uv``): the same pixels
+        :func:`pixel_diffraction` would give, with the kernel evaluated only in blocks where
+        the radius or the glint is uncertain."""
+        survey, disc = self.survey, self.survey.scene.preset.disc
+        r_lo, r_hi = survey.radius_mm
+        maybe = survey.may_be_on_disc() & (survey.unsure | (r_lo < radius_mm * (1 + _MARGIN)))
+        certain = (~survey.unsure & (r_lo > disc.hole_radius_mm * (1 + _MARGIN)) & (r_hi < radius_mm * (1 - _MARGIN))
+                   & (np.hypot(survey.abs_u[0], survey.abs_v[0]) > self.clear_uv * (1 + _MARGIN)) & ~self.evaluated)
+        extra = pixel_diffraction(survey.scene, survey.pixel_index(maybe & ~certain & ~self.evaluated))
+
+        def inside(px: PixelDiffraction) -> NDArray[np.int64]:
+            return px.index[(px.radius_mm < radius_mm) & ~(np.hypot(px.u, px.v) < self.clear_uv)]
+
+        return np.concatenate([inside(self.pixels), inside(extra), survey.pixel_index(certain)])
 
 
 def lobe_pixels(scene: Scene, min_visibility: float | None, dark_below: float | None = None, clear_uv: float = 0.0,
-                block: int = SURVEY_BLOCK) -> LobePixels:
-    """The kernel evaluated only where it is needed to tell, of the scene's disc pixels, those
-    with visibility ≥ ``min_visibility`` (all of them are in ``pixels``, with exactly the values
-    :func:`pixel_diffraction` gives) and, with ``dark_below``, those on the tracks with
-    visibility < ``dark_below`` and hypot(u, v) ≥ ``clear_uv`` (in ``pixels`` or ``dark``).
-    The same pixels as :func:`pixel_diffraction` over the whole image, at a fraction of the cost
-    where the lobe covers a fraction of the disc."""
+                lambda_nm: tuple[float, float] = (0.0, np.inf), block: int = SURVEY_BLOCK) -> LobePixels:
+    """The kernel evaluated only where it is needed to tell, of the scene's pixels on the tracks,
+    those with visibility ≥ ``min_visibility`` and λ₁ within ``lambda_nm`` (all of them are in
+    ``pixels``, with exactly the values :func:`pixel_diffraction` gives, in its order) and, with
+    ``dark_below``, those with visibility < ``dark_below`` and hypot(u, v) ≥ ``clear_uv`` (in
+    ``pixels`` or ``dark``). The same pixels as :func:`pixel_diffraction` over the whole image,
+    at a fraction of the cost where the lobe covers a fraction of the disc."""
     survey = survey_blocks(scene, block)
     disc = scene.preset.disc
     sigma = scene.preset.light.lobe_sigma
@@ -206,21 +215,21 @@ def lobe_pixels(scene: Scene, min_visibility: float | None, dark_below: float | 
         return sigma * float(np.sqrt(-2.0 * np.log(visibility)))
 
     v_lo, v_hi = survey.abs_v
-    on_disc = survey.may_be_on_disc()
+    r_lo, r_hi = survey.radius_mm
+    tracks = survey.unsure | ((r_hi >= disc.grating_r_min_mm * (1 - _MARGIN))
+                              & (r_lo <= disc.grating_r_max_mm * (1 + _MARGIN)))
     need = survey.unsure.copy()
     if min_visibility is not None:
-        need |= on_disc & (v_lo <= v_at(min_visibility) * (1 + _MARGIN))
+        u_lo, u_hi = survey.abs_u
+        per_u = disc.pitch_um * 1e3  # λ₁ = d·|u|
+        need |= (tracks & (v_lo <= v_at(min_visibility) * (1 + _MARGIN))
+                 & (u_hi * per_u >= lambda_nm[0] * (1 - _MARGIN)) & (u_lo * per_u <= lambda_nm[1] * (1 + _MARGIN)))
     certain = np.zeros_like(need)
     if dark_below is not None:
-        r_lo, r_hi = survey.radius_mm
-        u_lo = survey.abs_u[0]
         certain = (~survey.unsure & (v_lo > v_at(dark_below) * (1 + _MARGIN))
-                   & (np.hypot(u_lo, v_lo) > clear_uv * (1 + _MARGIN))
+                   & (np.hypot(survey.abs_u[0], v_lo) > clear_uv * (1 + _MARGIN))
                    & (r_lo > disc.grating_r_min_mm * (1 + _MARGIN)) & (r_hi < disc.grating_r_max_mm * (1 - _MARGIN)))
-        may_be_dark = (survey.unsure | ((r_hi >= disc.grating_r_min_mm * (1 - _MARGIN))
-                                        & (r_lo <= disc.grating_r_max_mm * (1 + _MARGIN)))) \
-            & (v_hi >= v_at(dark_below) * (1 - _MARGIN))
-        need |= may_be_dark & ~certain
+        need |= tracks & (v_hi >= v_at(dark_below) * (1 - _MARGIN)) & ~certain
     evaluated = need & ~certain
     return LobePixels(pixels=pixel_diffraction(scene, survey.pixel_index(evaluated)),
-                      dark=survey.pixel_index(certain), survey=survey, evaluated=evaluated)
+                      dark=survey.pixel_index(certain), survey=survey, evaluated=evaluated, clear_uv=clear_uv)
