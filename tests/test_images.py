@@ -497,6 +497,30 @@ def test_a_centred_window_of_a_jpeg_and_a_raw_file(tmp_path):
         assert big.rgb.shape == whole.rgb.shape and big.origin_px == (0.0, 0.0)
 
 
+def _same_image(a: LinearImage, b: LinearImage) -> bool:
+    return all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+               for x, y in zip(a.__dict__.values(), b.__dict__.values()))
+
+
+@pytest.mark.parametrize("fmt", ["jpg", "png", "dng"])
+def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt):
+    """PhotoReader: a preview then windows (at the preview's JPEG draft and a finer one) are each
+    the image load_photo gives; decodes are reused (a PNG is decoded once), and an image loaded
+    unjudged and judged later is the judged one."""
+    from training.simulation.dng import dng_bytes
+
+    rgb = np.clip(RNG.random((320, 480, 3)) * 0.8, 0, 1)
+    data = dng_bytes(rgb, seed=None) if fmt == "dng" else encode_photo(rgb, fmt, exif_for(4.0, 6.0, 480, "Canon_EOS_5D_Mark_III"), 95)
+    path = put(tmp_path / f"r.{fmt}", data)
+    requests = [(64, None), (64, (100, 60)), (200, (100, 60)), (32, (40, 40))]
+    with images.PhotoReader(path) as reader:
+        for max_side, half in requests:
+            assert _same_image(reader.load(max_side, centre_crop_px=half), load_photo(path, max_side, centre_crop_px=half))
+        assert _same_image(reader.judge(reader.load(64, judge=False)), load_photo(path, 64))
+        if fmt == "png":
+            assert len(reader._opened.decoded) == 1
+
+
 @pytest.mark.parametrize("bad", [(0, 10), (10, float("nan")), (5,), "big", (10, -3)])
 def test_a_bad_window_is_refused(tmp_path, bad):
     path = put(tmp_path / "w.png", pil_bytes(CODES8, "PNG"))

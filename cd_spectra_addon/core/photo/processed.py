@@ -50,12 +50,12 @@ def gamut_clipped_share(rgb: NDArray[np.floating], saturated: NDArray[np.bool_])
     flat = a.reshape(-1, a.shape[-1])
     top = _along(np.maximum, flat)  # NaN propagates: such pixels are never bright
     bright = np.flatnonzero((top.astype(np.float64) > BRIGHT) & ~np.asarray(saturated).reshape(-1))
-    values = flat[bright].astype(np.float64)
-    finite = np.isfinite(values)
-    values = values[_along(np.logical_and, finite)]
-    if values.shape[0] < 100:
+    hi = top[bright].astype(np.float64)
+    lo = _along(np.minimum, np.take(flat, bright, axis=0)).astype(np.float64)
+    finite = np.isfinite(hi) & np.isfinite(lo)  # no NaN is left: ±inf shows in the max or the min
+    if np.count_nonzero(finite) < 100:
         return 0.0
-    return float(np.mean(_along(np.minimum, values) < CLIPPED_RATIO * _along(np.maximum, values)))
+    return float(np.mean(lo[finite] < CLIPPED_RATIO * hi[finite]))
 
 
 def _along(op: np.ufunc, x: NDArray[Any]) -> NDArray[Any]:
