@@ -502,17 +502,22 @@ def _same_image(a: LinearImage, b: LinearImage) -> bool:
                for x, y in zip(a.__dict__.values(), b.__dict__.values()))
 
 
+@pytest.mark.parametrize("orientation", [1, 6])
 @pytest.mark.parametrize("fmt", ["jpg", "png", "dng"])
-def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt):
+def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt, orientation):
     """PhotoReader: a preview then windows (at the preview's JPEG draft and a finer one) are each
-    the image load_photo gives; decodes are reused (a PNG is decoded once), and an image loaded
-    unjudged and judged later is the judged one."""
+    the image load_photo gives, EXIF-rotated too; decodes are reused (a PNG is decoded once), and
+    an image loaded unjudged and judged later is the judged one."""
     from training.simulation.dng import dng_bytes
 
     rgb = np.clip(RNG.random((320, 480, 3)) * 0.8, 0, 1)
-    data = dng_bytes(rgb, seed=None) if fmt == "dng" else encode_photo(rgb, fmt, exif_for(4.0, 6.0, 480, "Canon_EOS_5D_Mark_III"), 95)
+    exif = Image.Exif()
+    exif.load(exif_for(4.0, 6.0, 480, "Canon_EOS_5D_Mark_III"))
+    exif[0x0112] = orientation
+    data = dng_bytes(rgb, seed=None) if fmt == "dng" else encode_photo(rgb, fmt, exif.tobytes(), 95)
     path = put(tmp_path / f"r.{fmt}", data)
-    requests = [(64, None), (64, (100, 60)), (200, (100, 60)), (32, (40, 40))]
+    requests = [(64, None), (64, (100, 60)), (200, (100, 60)), (32, (40, 40)), (100, (100, 200))]
+    assert load_photo(path).rgb.shape[0] == (480 if orientation == 6 and fmt != "dng" else 320)
     with images.PhotoReader(path) as reader:
         for max_side, half in requests:
             assert _same_image(reader.load(max_side, centre_crop_px=half), load_photo(path, max_side, centre_crop_px=half))

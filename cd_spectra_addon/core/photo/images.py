@@ -340,6 +340,10 @@ class _Opened:
                 self.fallback_reason = Unsupported(f"Pillow cannot read this TIFF ({_reason(exc)})")
         _check_size(name, self.header)
         self.exif_read = False
+        # The orientation known before any decode (Pillow formats: none yet, see pillow_header):
+        # every load picks its decode's draft with it, as a lone load_photo does, so a reader's
+        # later loads decode at the same scale (and give the same pixels) as load_photo's.
+        self.first_orientation = self.header.exif.orientation or 1
 
     def pixels(self, draft: int) -> Pixels:
         """The decode at JPEG draft ``draft`` (other formats: the whole file), made once."""
@@ -371,7 +375,7 @@ class _Opened:
 
     def load(self, max_side: int, transfer: str, crop: tuple[float, float] | None) -> LinearImage:
         header = self.header
-        orientation = header.exif.orientation or 1
+        orientation = self.first_orientation
         half = _stored_half(crop, orientation)
         draft, box = _factors(_span(header.width, header.height, 1.0, half), max_side)
         pixels = self.pixels(draft)
