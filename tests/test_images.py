@@ -506,8 +506,9 @@ def _same_image(a: LinearImage, b: LinearImage) -> bool:
 @pytest.mark.parametrize("fmt", ["jpg", "png", "dng"])
 def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt, orientation):
     """PhotoReader: a preview then windows (at the preview's JPEG draft and a finer one) are each
-    the image load_photo gives, EXIF-rotated too; decodes are reused (a PNG is decoded once), and
-    an image loaded unjudged and judged later is the judged one."""
+    the image load_photo gives, EXIF-rotated too, whether their decode was prefetched on another
+    thread or not; decodes are reused (a PNG is decoded once); an image loaded unjudged and
+    judged later is the judged one; layout() foretells a JPEG preview's size and scale."""
     from training.simulation.dng import dng_bytes
 
     rgb = np.clip(RNG.random((320, 480, 3)) * 0.8, 0, 1)
@@ -519,11 +520,21 @@ def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt, ori
     requests = [(64, None), (64, (100, 60)), (200, (100, 60)), (32, (40, 40)), (100, (100, 200))]
     assert load_photo(path).rgb.shape[0] == (480 if orientation == 6 and fmt != "dng" else 320)
     with images.PhotoReader(path) as reader:
-        for max_side, half in requests:
-            assert _same_image(reader.load(max_side, centre_crop_px=half), load_photo(path, max_side, centre_crop_px=half))
+        for i, (max_side, half) in enumerate(requests):
+            if i % 2:  # decoded on another thread (a JPEG's draft), ahead of its load...
+                reader.prefetch(max_side, centre_crop_px=half)
+            if i + 1 < len(requests):  # ...and one decoding while this load runs
+                reader.prefetch(requests[i + 1][0], centre_crop_px=requests[i + 1][1])
+            got = reader.load(max_side, centre_crop_px=half)
+            assert _same_image(got, load_photo(path, max_side, centre_crop_px=half))
         assert _same_image(reader.judge(reader.load(64, judge=False)), load_photo(path, 64))
         if fmt == "png":
             assert len(reader._opened.decoded) == 1
+        if fmt == "jpg":
+            assert not reader._opened.pending and sorted(reader._opened.decoded) == [1, 2, 4]
+            assert reader.layout(64)[:3] == (*reader.load(64).rgb.shape[1::-1], reader.load(64).scale)
+    with images.PhotoReader(path) as reader:
+        reader.prefetch(200, centre_crop_px=(100, 60))  # closed while (or after) decoding: nothing breaks
 
 
 @pytest.mark.parametrize("bad", [(0, 10), (10, float("nan")), (5,), "big", (10, -3)])
