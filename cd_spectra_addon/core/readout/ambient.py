@@ -89,8 +89,10 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
     def usable(index: NDArray[np.int64]) -> NDArray[np.bool_]:
         return np.ones(index.size, dtype=bool) if mask is None else ~mask[index]
 
-    glint = np.hypot(px.u, px.v) < GLINT_UV  # well clear of the mirror glint and its halo
-    dark = px.index[usable(px.index) & ~glint & px.on_tracks & (px.visibility < INVISIBLE)]
+    at = np.flatnonzero(px.on_tracks & (px.visibility < INVISIBLE))
+    at = at[~(np.hypot(px.u[at], px.v[at]) < GLINT_UV)]  # well clear of the mirror glint and its halo
+    dark = px.index[at]
+    dark = dark[usable(dark)]
     if isinstance(lobe, LobePixels):  # and the pixels the survey found dark without evaluating them
         dark = np.concatenate([dark, lobe.dark[usable(lobe.dark)]])
     if dark.size < MIN_DARK_PIXELS:

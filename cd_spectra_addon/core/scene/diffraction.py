@@ -194,7 +194,8 @@ class LobePixels:
         extra = pixel_diffraction(survey.scene, survey.pixel_index(maybe & ~certain & ~self.evaluated))
 
         def inside(px: PixelDiffraction) -> NDArray[np.int64]:
-            return px.index[(px.radius_mm < radius_mm) & ~(np.hypot(px.u, px.v) < self.clear_uv)]
+            at = np.flatnonzero(px.radius_mm < radius_mm)
+            return px.index[at[~(np.hypot(px.u[at], px.v[at]) < self.clear_uv)]]
 
         return np.concatenate([inside(self.pixels), inside(extra), survey.pixel_index(certain)])
 
