@@ -25,6 +25,7 @@ from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.photo.processed import BRIGHT, CLIPPED_RATIO, gamut_clipped_share
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
 from training.simulation.camera_pipelines import (
@@ -148,6 +149,24 @@ def test_in_camera_files_are_detected_and_camera_native_ones_are_not(tmp_path, c
     assert stripped.processed and "clipped to zero" in stripped.processed_reason
     native_heic = load_photo(_shoot(tmp_path, capture, spd, "native-heic", None, fmt="heic"))
     assert native_heic.processed  # a HEIC is a phone's rendering whatever its pixels say
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_gamut_clipped_share_is_the_plain_float64_count(dtype):
+    """The fast share (channel max in the image's precision, float64 for bright pixels only)
+    equals the straightforward one, also at the threshold and with NaN, ±inf and clipped pixels."""
+    rng = np.random.default_rng(5)
+    rgb = (rng.random((120, 150, 3)) * 0.3).astype(dtype)
+    rgb[::7, ::5, 1] = 0.0
+    rgb[::3, ::3] = dtype(BRIGHT)  # exactly at the float32/float64 threshold
+    rgb[5, 5, 0], rgb[6, 6, 1], rgb[7, 7, 2], rgb[8, 8] = np.nan, np.inf, -np.inf, np.inf
+    saturated = rng.random((120, 150)) < 0.1
+    flat = rgb.astype(np.float64).reshape(-1, 3)
+    flat = flat[~saturated.reshape(-1) & np.all(np.isfinite(flat), axis=1)]
+    bright = flat[flat.max(axis=1) > BRIGHT]
+    plain = float(np.mean(bright.min(axis=1) < CLIPPED_RATIO * bright.max(axis=1)))
+    assert gamut_clipped_share(rgb, saturated) == plain
+    assert gamut_clipped_share(rgb[:5, :5], saturated[:5, :5]) == 0.0  # fewer than 100 bright pixels
 
 
 def test_icc_profile_marks_a_file_processed(tmp_path):

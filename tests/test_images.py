@@ -497,6 +497,46 @@ def test_a_centred_window_of_a_jpeg_and_a_raw_file(tmp_path):
         assert big.rgb.shape == whole.rgb.shape and big.origin_px == (0.0, 0.0)
 
 
+def _same_image(a: LinearImage, b: LinearImage) -> bool:
+    return all(np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
+               for x, y in zip(a.__dict__.values(), b.__dict__.values()))
+
+
+@pytest.mark.parametrize("orientation", [1, 6])
+@pytest.mark.parametrize("fmt", ["jpg", "png", "dng"])
+def test_a_reader_loads_what_load_photo_loads_from_one_decode(tmp_path, fmt, orientation):
+    """PhotoReader: a preview then windows (at the preview's JPEG draft and a finer one) are each
+    the image load_photo gives, EXIF-rotated too, whether their decode was prefetched on another
+    thread or not; decodes are reused (a PNG is decoded once); an image loaded unjudged and
+    judged later is the judged one; layout() foretells a JPEG preview's size and scale."""
+    from training.simulation.dng import dng_bytes
+
+    rgb = np.clip(RNG.random((320, 480, 3)) * 0.8, 0, 1)
+    exif = Image.Exif()
+    exif.load(exif_for(4.0, 6.0, 480, "Canon_EOS_5D_Mark_III"))
+    exif[0x0112] = orientation
+    data = dng_bytes(rgb, seed=None) if fmt == "dng" else encode_photo(rgb, fmt, exif.tobytes(), 95)
+    path = put(tmp_path / f"r.{fmt}", data)
+    requests = [(64, None), (64, (100, 60)), (200, (100, 60)), (32, (40, 40)), (100, (100, 200))]
+    assert load_photo(path).rgb.shape[0] == (480 if orientation == 6 and fmt != "dng" else 320)
+    with images.PhotoReader(path) as reader:
+        for i, (max_side, half) in enumerate(requests):
+            if i % 2:  # decoded on another thread (a JPEG's draft), ahead of its load...
+                reader.prefetch(max_side, centre_crop_px=half)
+            if i + 1 < len(requests):  # ...and one decoding while this load runs
+                reader.prefetch(requests[i + 1][0], centre_crop_px=requests[i + 1][1])
+            got = reader.load(max_side, centre_crop_px=half)
+            assert _same_image(got, load_photo(path, max_side, centre_crop_px=half))
+        assert _same_image(reader.judge(reader.load(64, judge=False)), load_photo(path, 64))
+        if fmt == "png":
+            assert len(reader._opened.decoded) == 1
+        if fmt == "jpg":
+            assert not reader._opened.pending and sorted(reader._opened.decoded) == [1, 2, 4]
+            assert reader.layout(64)[:3] == (*reader.load(64).rgb.shape[1::-1], reader.load(64).scale)
+    with images.PhotoReader(path) as reader:
+        reader.prefetch(200, centre_crop_px=(100, 60))  # closed while (or after) decoding: nothing breaks
+
+
 @pytest.mark.parametrize("bad", [(0, 10), (10, float("nan")), (5,), "big", (10, -3)])
 def test_a_bad_window_is_refused(tmp_path, bad):
     path = put(tmp_path / "w.png", pil_bytes(CODES8, "PNG"))

@@ -19,15 +19,15 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..readout.ambient import dark_offset, rough_offset
+from ..readout.ambient import dark_offset, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration
 from ..spectra.cameras import CameraProfile
 from ..scene.capture import Preset, Scene
 from ..planning.capture_advice import advice_for_photo
-from ..scene.diffraction import PixelDiffraction, pixel_diffraction
+from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..readout.forward_matrix import bin_response, feature_matrix
-from ..photo.images import LinearImage
+from ..photo.images import ExifInfo, LinearImage
 from ..spectrum.model import model_inputs
 from ..pose.fit import fit_pose
 from ..pose.result import PoseFit
@@ -42,8 +42,8 @@ MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow 
 # 0.3 % the rainbow is no longer found (bench/reliability.md).
 DIM_LEVEL_8BIT = 0.01
 
-__all__ = ["Analysis", "prepare", "focal_px_for", "physics_spd", "network_inputs", "MIN_RAINBOW_CONTRAST",
-           "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+__all__ = ["Analysis", "prepare", "focal_px_for", "focal_px_of", "physics_spd", "network_inputs",
+           "MIN_RAINBOW_CONTRAST", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -71,14 +71,19 @@ def focal_px_for(image: LinearImage, preset: Preset) -> tuple[float, str]:
     EXIF FocalLength × FocalPlaneXResolution is exact for the sensor's pixels; the 35 mm
     equivalent assumes the long side spans 36 mm; otherwise the preset's field of view.
     """
-    height, width = image.rgb.shape[:2]
-    exif = image.exif
+    return focal_px_of(image.exif, image.rgb.shape[1], image.scale, image.displayed_size, preset)
+
+
+def focal_px_of(exif: ExifInfo, width: int, scale: float, displayed_size: tuple[int, int],
+                preset: Preset) -> tuple[float, str]:
+    """:func:`focal_px_for` of an image ``width`` loaded pixels wide at ``scale`` original pixels
+    per loaded one, from a photo of ``displayed_size``: known before the pixels are decoded."""
     if exif.focal_length_mm and exif.focal_plane_px_per_mm:
-        value = exif.focal_length_mm * exif.focal_plane_px_per_mm / image.scale
+        value = exif.focal_length_mm * exif.focal_plane_px_per_mm / scale
         if math.isfinite(value) and value > 0:
             return value, "exif"
     if exif.focal_length_35mm:
-        value = exif.focal_length_35mm / 36.0 * max(image.displayed_size) / image.scale  # a window keeps the pitch
+        value = exif.focal_length_35mm / 36.0 * max(displayed_size) / scale  # a window keeps the pitch
         if math.isfinite(value) and value > 0:
             return value, "exif-35mm"
     cam = preset.camera
@@ -132,10 +137,12 @@ def prepare(
                                saturated=saturated)
     t1 = time.perf_counter()
     scene = fit.scene(preset, (width, height))
-    if pixels is None:
-        pixels = pixel_diffraction(scene)
-    ambient = dark_offset(rgb, scene, saturated, pixels)
-    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene, pixels)
+    # Without a cache, the kernel is evaluated only where the lobe can be visible or the dark
+    # is uncertain: the same readout and offset as from every pixel (tests/test_pixel_survey.py).
+    lobe: PixelDiffraction | LobePixels = readout_pixels(scene) if pixels is None else pixels
+    ambient = dark_offset(rgb, scene, saturated, lobe)
+    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, saturated, scene,
+                               lobe.pixels if isinstance(lobe, LobePixels) else lobe)
     t2 = time.perf_counter()
     readout = _with_gains(measured, calibration)
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:

@@ -121,6 +121,9 @@ class Pixels:
     bits: int
     draft: int  # original pixels per decoded pixel (JPEG DCT-domain scaling), else 1
     read: Callable[[int, int], NDArray[Any]]
+    # read(y0, y1) of columns x0..x1 only, ``read_box(y0, y1, x0, x1)``, where the decoder can
+    # copy out just those (Pillow: a window's band costs its own pixels, not whole rows).
+    read_box: Callable[[int, int, int, int], NDArray[Any]] | None = None
 
 
 def check_file(path: str | os.PathLike[str]) -> Path:
@@ -341,13 +344,16 @@ def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int
     bits = {np.uint8: 8, np.uint16: 16, np.float32: 32}[dtype]
     image = im
 
-    def read(y0: int, y1: int) -> NDArray[Any]:
-        band = np.asarray(image.crop((0, y0, image.width, y1)))
+    def read_box(y0: int, y1: int, x0: int, x1: int) -> NDArray[Any]:
+        band = np.asarray(image.crop((x0, y0, x1, y1)))
         if band.ndim == 2:
             band = band[..., None]
         return band[..., :channels].astype(dtype, copy=False)
 
-    return Pixels(im.width, im.height, channels, bits, used_draft, read)
+    def read(y0: int, y1: int) -> NDArray[Any]:
+        return read_box(y0, y1, 0, image.width)
+
+    return Pixels(im.width, im.height, channels, bits, used_draft, read, read_box)
 
 
 # --- EXIF ------------------------------------------------------------------------------------

