@@ -159,7 +159,7 @@ def profiles(draw: st.DrawFn) -> Readout:
     from cd_spectra_addon.core.scene.diffraction import PixelDiffraction
 
     pixels = PixelDiffraction(**{f: empty.astype(np.int64) if f == "index" else empty.astype(bool) if f == "on_tracks"
-                                 else np.zeros((0, 3)) if f in ("points", "view") else empty
+                                 else np.zeros((3, 0)) if f in ("points_c", "view_c") else empty
                                  for f in PixelDiffraction.__dataclass_fields__})
     return Readout(lambda_nm=FEATURE_LAMBDA_NM.copy(), values=values, weight=np.ones(N_FEATURES),
                    saturated_fraction=sat, valid=valid, noise=noise, pixels=pixels,

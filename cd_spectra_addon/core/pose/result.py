@@ -104,7 +104,7 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
     flat = rgb.reshape(-1, 3)
     glint = glint_mask(px, scene)
     glint_energy = float(np.sum(flat[px.index[glint]] ** 2))
-    px = PixelDiffraction(**{k: v[~glint] for k, v in px.__dict__.items()}) if np.any(glint) else px
+    px = px.select(~glint) if np.any(glint) else px
     if scramble:
         order = np.random.default_rng(0).permutation(px.index.size)
         px = replace(px, lambda1_nm=px.lambda1_nm[order], visibility=px.visibility[order],

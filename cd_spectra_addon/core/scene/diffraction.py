@@ -34,8 +34,18 @@ class PixelDiffraction:
     on_tracks: NDArray[np.bool_]  # inside the grating annulus
     u: NDArray[np.float64]
     v: NDArray[np.float64]
-    points: NDArray[np.float64]  # world positions on the disc (metres)
-    view: NDArray[np.float64]  # unit directions to the camera
+    points_c: NDArray[np.float64]  # (3, n) world positions on the disc (metres), component-major
+    view_c: NDArray[np.float64]  # (3, n) unit directions to the camera
+
+    @property
+    def points(self) -> NDArray[np.float64]:
+        """(n, 3) world positions on the disc (metres)."""
+        return self.points_c.T
+
+    @property
+    def view(self) -> NDArray[np.float64]:
+        """(n, 3) unit directions to the camera."""
+        return self.view_c.T
 
     @property
     def amplitude(self) -> NDArray[np.float64]:
@@ -43,10 +53,10 @@ class PixelDiffraction:
         return self.visibility * self.gain
 
     def select(self, which: NDArray[np.intp] | NDArray[np.bool_]) -> PixelDiffraction:
-        """The pixels at positions ``which`` (indices, or a mask over the pixels). By
-        ``np.take``: for the (n, 3) arrays ~3× faster than fancy indexing, the same values."""
+        """The pixels at positions ``which`` (indices, or a mask over the pixels), by ``np.take``
+        along the pixel axis (the last one, also for the component-major vectors)."""
         sel = np.flatnonzero(which) if np.asarray(which).dtype == bool else which
-        return PixelDiffraction(**{k: np.take(v, sel, axis=0) for k, v in self.__dict__.items()})
+        return PixelDiffraction(**{k: np.take(v, sel, axis=-1) for k, v in self.__dict__.items()})
 
 
 def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
@@ -83,8 +93,8 @@ def pixel_diffraction(scene: Scene, index: NDArray[np.int64] | None = None,
         on_tracks=(radius_mm >= disc.grating_r_min_mm) & (radius_mm <= disc.grating_r_max_mm),
         u=u,
         v=v,
-        points=np.take(geo.points, keep, axis=0),
-        view=np.take(geo.view, keep, axis=0),
+        points_c=np.take(geo.points_c, keep, axis=1),
+        view_c=np.take(geo.view_c, keep, axis=1),
     )
 
 
