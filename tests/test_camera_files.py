@@ -7,7 +7,6 @@ saturation per photosite and EXIF must all survive LibRaw's parser.
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest

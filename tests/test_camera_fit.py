@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.calibration.calibration import Calibration, load_calibration, new_metadata, save_calibration
 from cd_spectra_addon.core.inverse.calibration_shot import calibrate_photo, fit_calibration
 from cd_spectra_addon.core.calibration.camera_fit import CameraPrior, camera_prior, fit_sensitivities
@@ -61,7 +61,7 @@ def test_a_calibration_shot_measures_a_camera_the_prior_never_saw(tmp_path, capt
     prior = camera_prior(TRAIN)
     generic = prior.mean / prior.mean.max()
     image = load_photo(_shoot(tmp_path / "a.png", capture, CIE_A, load_camera(HELD_CAMERA), 1))
-    analysis = prepare(image, scene.preset, CameraProfile(GENERIC_CAMERA, generic), fit=PoseFit.of_scene(scene))
+    analysis = read_photo(image, scene.preset, CameraProfile(GENERIC_CAMERA, generic), fit=PoseFit.of_scene(scene))
     fitted = fit_sensitivities(analysis.uncalibrated, analysis.response, CIE_A, prior)
     err_fit = np.mean(np.abs(fitted - truth)[BAND])
     err_generic = np.mean(np.abs(generic - truth)[BAND])

@@ -1,7 +1,7 @@
 """The headless command line: output contract, defaults, errors, atomic files, --blend.
 
-Most tests stand a fake estimator in for ``core.estimate`` (inserted into ``sys.modules`` of a
-child process), so the contract is tested apart from the model.
+Most tests stand a fake estimator in for ``core.inverse.estimate`` and ``core.inverse.batch``
+(inserted into ``sys.modules`` of a child process), so the contract is tested apart from the model.
 """
 
 from __future__ import annotations
@@ -42,6 +42,14 @@ FAKE_ESTIMATOR = textwrap.dedent('''
     module = types.ModuleType("cd_spectra_addon.core.inverse.estimate")
     module.estimate_photo = estimate_photo
     sys.modules[module.__name__] = module
+
+    def estimate_photos(paths, *, preset="cd-default", **options):  # the CLI's many-photo path, in order
+        for path in paths:
+            yield estimate_photo(path, preset=preset, **options)
+
+    batch = types.ModuleType("cd_spectra_addon.core.inverse.batch")
+    batch.estimate_photos = estimate_photos
+    sys.modules[batch.__name__] = batch
 ''')
 
 RUNNER = FAKE_ESTIMATOR + textwrap.dedent('''

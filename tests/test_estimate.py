@@ -6,10 +6,9 @@ import shutil
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.inverse import estimate as est_mod
 from cd_spectra_addon.core.inverse.calibration_shot import calibrate_photo
 from cd_spectra_addon.core.calibration.calibration import (
-    Calibration, fit_gains, list_calibrations, load_calibration, new_metadata, save_calibration,
+    list_calibrations, load_calibration,
 )
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.scene.capture import Scene, load_preset
@@ -133,7 +132,7 @@ def test_unknown_calibration_and_camera_are_specific_errors(tmp_path, capture):
 def test_calibrated_photos_use_their_own_fusion_strength():
     from types import SimpleNamespace
 
-    from cd_spectra_addon.core.inverse.estimate import _fusion
+    from cd_spectra_addon.core.inverse.stages import fusion_settings as _fusion
 
     model = SimpleNamespace(metadata={"fusion": {"strength": 0.3, "floor": 0.05, "calibrated_strength": 3.0,
                                                  "calibrated_floor": 0.02}})

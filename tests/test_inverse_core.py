@@ -21,7 +21,6 @@ from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.spectra.illuminants import daylight_spd, known_lamp_spd, planck_spd
 from cd_spectra_addon.core.spectra.colour import compare_spds
-from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.numerics.nnls import nnls_normal
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo

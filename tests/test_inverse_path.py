@@ -12,7 +12,8 @@ import pytest
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.errors import NoDiscError
-from cd_spectra_addon.core.inverse.estimate import _prior, camera_for, estimate_image
+from cd_spectra_addon.core.inverse.estimate import camera_for, estimate_image
+from cd_spectra_addon.core.inverse.stages import model_prior
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
 from cd_spectra_addon.core.pose.fit import fit_pose
@@ -71,7 +72,7 @@ def test_dataset_sample_and_estimate_see_identical_features(tmp_path, capture, c
     focal = capture[0].preset.camera.focal_px
     fit = fit_pose(np.asarray(image.rgb, dtype=np.float64), preset, focal)
 
-    features = sample_features(image, preset, cam, generic, fit, None, _prior(model))
+    features = sample_features(image, preset, cam, generic, fit, None, model_prior(model))
     result = estimate_image(image, preset=preset, camera=camera, model=model, fit=fit)
 
     assert features is not None and len(model.seen) == 1
@@ -94,7 +95,7 @@ def test_a_photo_the_product_refuses_is_not_a_training_sample(tmp_path, capture)
     with pytest.raises(NoDiscError):
         estimate_image(image, preset=preset, fit=fit)
     assert sample_features(image, preset, CameraProfile(cam.name, cam.sensitivities), False, fit, None,
-                           _prior(load_model())) is None
+                           model_prior(load_model())) is None
 
 
 @pytest.mark.parametrize("camera", [DEFAULT_CAMERA, "generic"])
@@ -128,7 +129,7 @@ def test_calibrated_in_camera_photo_gives_training_and_product_the_same_features
     image = shoot(_lamp(), "photo")
     assert image.processed
     fit = fit_pose(np.asarray(image.rgb, dtype=np.float64), preset, scene.preset.camera.focal_px)
-    features = sample_features(image, preset, cam, generic, fit, None, _prior(model), cal)
+    features = sample_features(image, preset, cam, generic, fit, None, model_prior(model), cal)
     result = estimate_image(image, preset=preset, camera=camera, calibration=cal, model=model, fit=fit)
     assert features is not None and len(model.seen) == 1
     assert np.array_equal(model.seen[0], features[0])

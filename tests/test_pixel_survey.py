@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.photo.image_formats import ExifInfo
 from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.pose.result import PoseFit
@@ -112,8 +112,8 @@ def test_a_rendered_photo_reads_the_same_from_the_survey_as_from_every_pixel(nam
                         original_size=scene.preset.camera.image_size_px, encoding="linear-float", exif=ExifInfo(),
                         path="")
     fit = PoseFit.of_scene(scene)
-    a = prepare(image, scene.preset, camera, fit=fit, pixels=pixel_diffraction(fit.scene(scene.preset, (480, 480))))
-    b = prepare(image, scene.preset, camera, fit=fit)
+    a = read_photo(image, scene.preset, camera, fit=fit, pixels=pixel_diffraction(fit.scene(scene.preset, (480, 480))))
+    b = read_photo(image, scene.preset, camera, fit=fit)
     assert np.array_equal(a.ambient, b.ambient)
     assert np.array_equal(a.readout.values, b.readout.values) and np.array_equal(a.matrix, b.matrix)
 

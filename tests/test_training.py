@@ -122,7 +122,7 @@ def test_the_dataset_reads_near_axis_photos_and_gives_up_on_refused_geometries(t
     data = np.load(path)
     counts = {name: int(np.sum(data["cube"] == name)) for name in ("phone-nominal", "phone-aimed", "tripod-nominal")}
     assert counts["phone-nominal"] > 18 and counts["phone-aimed"] > 18
-    from cd_spectra_addon.core.inverse.prepare import prepare
+    from cd_spectra_addon.core.inverse.stages import read_photo
     from cd_spectra_addon.core.errors import CDSpectraError
     try:  # the oblique cube follows what the estimator does: refused today, read once it is
         oblique = dataset.CUBE_SETS["buildable-smoke"][2]
@@ -130,7 +130,7 @@ def test_the_dataset_reads_near_axis_photos_and_gives_up_on_refused_geometries(t
         from training.simulation import photo
         img, _ = photo.synthesize(cube, np.ones(81), dataset.load_camera("Canon_EOS_5D_Mark_III"), 0.9, 0.01)
         loaded = dataset._write_and_load(img, "exr", 0, str(tmp_path), b"", oblique.size)
-        prepare(loaded, oblique.reading_preset(), dataset.load_camera("Canon_EOS_5D_Mark_III"))
+        read_photo(loaded, oblique.reading_preset(), dataset.load_camera("Canon_EOS_5D_Mark_III"))
         read = True
     except CDSpectraError:
         read = False
@@ -167,7 +167,10 @@ def _case(truth, net, physics, rng):
     readout = Readout(lambda_nm=np.linspace(380, 780, 60), values=values, weight=np.ones(60),
                       saturated_fraction=np.zeros(60), valid=np.ones(60, dtype=bool), noise=np.full((60, 3), 1e-3),
                       pixels=None, pixel_bin=np.zeros(0, dtype=int), pixel_weight=np.zeros(0))
-    return Case(readout, matrix, net, np.full(81, 0.05), physics, truth)
+    from types import SimpleNamespace
+
+    reading = SimpleNamespace(readout=readout, matrix=matrix)  # what the fusion reads of the readout stage
+    return Case(reading, net, np.full(81, 0.05), physics, truth)
 
 
 def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():

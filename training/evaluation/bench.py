@@ -32,6 +32,7 @@ from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.inverse.batch import estimate_photos
 from cd_spectra_addon.core.inverse.estimate import estimate_image, estimate_photo
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
+from cd_spectra_addon.core.inverse.load import PREVIEW_SIDE, load_for_estimate
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, MODEL_DIR, MODEL_NAME, load_model
 
@@ -90,7 +91,9 @@ def error_vs_time(quick: bool) -> list[dict[str, Any]]:
             estimate_photo(paths[0], model=model, method=point["method"])  # warm caches
             for path, lamp in zip(paths, lamps):
                 t0 = time.perf_counter()
-                image = load_photo(path, max_side=point["max_side"])
+                # the product's loader, or one reading the photo smaller (the operating points below it)
+                image = load_for_estimate(path, scene.preset) if point["max_side"] == PREVIEW_SIDE else \
+                    load_photo(path, max_side=point["max_side"])
                 est = estimate_image(image, model=model, method=point["method"])
                 times.append(time.perf_counter() - t0)
                 m = compare_spds(est.spd, lamp.spd)

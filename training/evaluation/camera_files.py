@@ -22,7 +22,7 @@ photographed by a camera whose pixels are twice the cube's per side and written 
   gains and with what ``calibrate`` now does for the generic profile: fit the camera's own
   sensitivities (:mod:`cd_spectra_addon.core.calibration.camera_fit`), then gains.
 
-Everything goes through ``load_photo`` → ``estimate_image`` (camera "auto" unless stated):
+Everything goes through the product's loader (``load_for_estimate``) → ``estimate_image`` (camera "auto" unless stated):
 the product's path. All figures are from the simulator.
 """
 
@@ -46,6 +46,7 @@ from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
+from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.photo.images import LinearImage, load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
 
@@ -169,14 +170,14 @@ class _Shooter:
                                        white=15000,
                                        make=make, model=model or make, focal_length_mm=cam.focal_length_mm,
                                        focal_plane_px_per_mm=2 * width / cam.sensor_width_mm, seed=seed))  # per photosite
-            return load_photo(path, max_side=self.max_side)
+            return load_for_estimate(path, self.scene.preset)
         image = self.native(spd, camera, seed, row.upsample)
         if pipeline is not None:
             image = render_in_camera(image, pipeline, photo.upsample(self.meter, row.upsample).astype(bool))
             exif = in_camera_exif(exif)
         path = self.tmp / f"{tag}.{ {'tiff16': 'tif', 'jpg422': 'jpg'}.get(row.fmt, row.fmt)}"
         photo.write_photo(path, image, row.fmt, exif)
-        return load_photo(path, max_side=self.max_side)
+        return load_for_estimate(path, self.scene.preset)
 
 
 def _camera(row: Row, index: int, held: list[str]) -> tuple[CameraProfile, str, str]:

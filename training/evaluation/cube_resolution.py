@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.inverse.prepare import physics_spd, prepare
+from cd_spectra_addon.core.inverse.stages import physics_spd, read_photo
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import NEAR_AXIS_PRESET, load_preset
+from cd_spectra_addon.core.scene.capture import NEAR_AXIS_PRESET
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.photo.images import load_photo
@@ -65,7 +65,7 @@ class _Reader:
 
     def __call__(self, path: Path):
         image = load_photo(path, max_side=self.side)
-        analysis = prepare(image, self.spec.reading_preset(), self.camera, fit=self.fit, pixels=self.pixels)
+        analysis = read_photo(image, self.spec.reading_preset(), self.camera, fit=self.fit, pixels=self.pixels)
         return analysis.readout, physics_spd(analysis, self.prior)
 
 

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.spectra import colour as colour_core
-from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.scene.relative_pose import relative_pose, scene_from_relative, with_disc_centre_at
 from cd_spectra_addon.core.calibration.calibration import Calibration, new_metadata
@@ -41,7 +41,7 @@ from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Disc, Scene, loa
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
-from cd_spectra_addon.core.photo.images import load_photo
+from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.spectrum.model import load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
@@ -143,7 +143,7 @@ def _calibration_for(photos: Photos, cond: Condition, model) -> Calibration:
     """A calibration shot of a household incandescent bulb (CIE A) in the same setup."""
     ref = known_lamp_spd("incandescent")
     path = photos.write(replace(cond, calibrate=False), ref, seed=99, tag="calibration")
-    image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
+    image = load_for_estimate(path, load_preset(cond.spec.preset))
     preset = load_preset(cond.spec.preset)
     gains, _ = gains_from_image(image, ref, preset, load_camera(cond.profile or cond.camera))
     return Calibration("eval", gains, preset.name, cond.camera, new_metadata(str(path), "incandescent"))
@@ -170,10 +170,10 @@ def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, met
         t0 = time.perf_counter()
         # Read back at the cube's resolution: the photo's pixels then have the footprint the
         # renderer integrated over (a real camera's pixels always do).
-        image = load_photo(path, max_side=max(photos.cube(cond.spec)[1].preset.camera.image_size_px))
+        image = load_for_estimate(path, load_preset(cond.spec.preset))
         fit = None
         if cond.center_error_px:
-            base = prepare(image, preset, load_camera(cond.profile or cond.camera)).fit
+            base = read_photo(image, preset, load_camera(cond.profile or cond.camera)).fit
             angle = 2 * math.pi * ((i * 0.618) % 1.0)
             d = cond.center_error_px
             fit = base.with_scene(_disc_moved(base, d * math.sin(angle), d * math.cos(angle)))

@@ -41,7 +41,8 @@ import numpy as np
 
 from cd_spectra_addon.core.spectra import colour as colour_core
 from cd_spectra_addon.core.readout.ambient import rough_offset
-from cd_spectra_addon.core.inverse.prepare import focal_px_for
+from cd_spectra_addon.core.inverse.load import load_for_estimate
+from cd_spectra_addon.core.inverse.stages import pose_photo
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, SETUP_PRESETS, Pose, Preset, Scene, load_preset
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
@@ -191,14 +192,11 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
         image = np.minimum(photo.add_noise(image, NOISE, np.random.default_rng(1000 + i)), 1.0)
         path = tmp / f"p{i}.jpg"
         photo.write_photo(path, image, "jpg", exif)
-        loaded = load_photo(path, max_side=SIZE)
+        loaded = load_for_estimate(path, preset)  # the product's loader: the whole photo here (disc 800 px)
         t0 = time.perf_counter()
         try:
-            # prepare's own pose fit, done here once so its result can be compared with the truth
-            rgb = np.asarray(loaded.rgb, dtype=np.float64)
-            clipped = np.asarray(loaded.saturated) | np.asarray(loaded.invalid)
-            fit = fit_pose(rgb - rough_offset(rgb, clipped), preset, focal_px_for(loaded, preset)[0],
-                                   sensitivities=cam.sensitivities, saturated=clipped)
+            # the estimator's own pose stage, run here once so its fit can be compared with the truth
+            fit = pose_photo(loaded, preset, cam).fit
             fit_s = time.perf_counter() - t0
             est = estimate_image(loaded, preset=preset, model=model, fit=fit)
         except CDSpectraError as exc:

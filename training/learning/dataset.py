@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.inverse.prepare import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.inverse.stages import network_inputs, physics_spd, read_photo
 from cd_spectra_addon.core.calibration.calibration import Calibration
 from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
 from cd_spectra_addon.core.calibration.camera_fit import camera_prior
@@ -304,7 +304,7 @@ def _variants(spec: CubeSpec, cube: NDArray[np.float32], rng: np.random.Generato
         img, _ = photo.synthesize(cube, spd, cam, 0.9, 0.01, rng, meter)
         loaded = _write_and_load(img, "exr", 0, tmpdir, b"", spec.size)
         try:
-            fit = prepare(loaded, preset, cam).fit
+            fit = read_photo(loaded, preset, cam).fit
         except CDSpectraError:
             continue
         out.append(_Variant(fit, pixel_diffraction(fit.scene(preset, scene.preset.camera.image_size_px))))
@@ -321,7 +321,7 @@ def sample_features(loaded: LinearImage, preset: Preset, camera: CameraProfile, 
     refuses the photo."""
     camera, generic = solving_camera(camera, generic, calibration)
     try:
-        analysis = prepare(loaded, preset, camera, generic_camera=generic, fit=fit, pixels=pixels,
+        analysis = read_photo(loaded, preset, camera, generic_camera=generic, fit=fit, pixels=pixels,
                            calibration=calibration)
     except CDSpectraError:
         return None

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from training.learning.dataset import CUBE_SETS, SHIPPED_SET
 from training.learning.spd_prior import gaussian_prior
 from training.learning.train import train
-from training.learning.tune_fusion import BANDS_NM, TUNING_FAMILIES, best_setting, fusion_cases, setting_grid, band_errors, band_rows
+from training.learning.tune_fusion import TUNING_FAMILIES, best_setting, fusion_cases, setting_grid, band_errors, band_rows
 from training.simulation.basis import REPO
 
 # Thermal and arc continua / LEDs / line sources: each group is a way of making light the probe

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.calibration import camera_fit
-from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.calibration.camera_fit import CameraPrior, fit_sensitivities
 from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
@@ -63,7 +63,7 @@ def shots(names: list[str], size: int, seed: int = 5) -> dict[str, tuple]:
             image, _ = photo.synthesize(cube, ref, cam, 0.9, 0.01, rng, meter)
             path = Path(tmp) / "shot.exr"
             photo.write_photo(path, image, "exr")
-            analysis = prepare(load_photo(path, max_side=size), scene.preset, cam, fit=truth)
+            analysis = read_photo(load_photo(path, max_side=size), scene.preset, cam, fit=truth)
             out[name] = (analysis.uncalibrated, analysis.response)
     return out
 

@@ -26,15 +26,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.spectrum import solve
-from cd_spectra_addon.core.inverse.prepare import network_inputs, physics_spd, prepare
+from cd_spectra_addon.core.inverse.stages import Reading, fuse, model_prior, network_inputs, physics_spd, read_photo
 from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import SpectralModel, load_model
-from cd_spectra_addon.core.readout.readout import Readout
-from cd_spectra_addon.core.spectrum.solve import GaussianPrior
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import photo
@@ -58,22 +55,14 @@ SEED = 31337
 
 @dataclass
 class Case:
-    """One synthetic photo as the estimator sees it: readout, forward matrix, the network's SPD
-    and uncertainty, physics + prior (the photo's units) and the truth."""
+    """One synthetic photo as the estimator sees it (its readout stage), the network's SPD and
+    uncertainty, physics + prior (the photo's units) and the truth."""
 
-    readout: Readout
-    matrix: NDArray[np.float64]
+    reading: Reading
     net: NDArray[np.float64]
     std: NDArray[np.float64]
     physics: NDArray[np.float64]
     truth: NDArray[np.float64]
-
-
-def model_prior(model: SpectralModel) -> tuple[GaussianPrior, NDArray[np.float64]]:
-    """The Gaussian prior the estimator uses with this model (its metadata, not today's prior)."""
-    p = model.metadata["prior"]
-    prior = GaussianPrior(np.asarray(p["mean"], dtype=np.float64), np.asarray(p["covariance"], dtype=np.float64))
-    return prior, prior.precision()
 
 
 def fusion_cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed: int = SEED,
@@ -105,19 +94,20 @@ def fusion_cases(model: SpectralModel, cube_set: str, n: int, engine: str, seed:
                                                              c.image_size_px[0] * deg.upsample, camera.name))
             image = load_photo(path, max_side=max(c.image_size_px))
             try:
-                analysis = prepare(image, spec.reading_preset(), camera)
+                analysis = read_photo(image, spec.reading_preset(), camera)
             except CDSpectraError:
                 continue
             e_phys = physics_spd(analysis, prior)
             net, std = model.predict(network_inputs(analysis, e_phys))
-            cases.append(Case(analysis.readout, analysis.matrix, net, std, e_phys, spd))
+            cases.append(Case(analysis, net, std, e_phys, spd))
     return cases
 
 
-def _fused(case: Case, strength: float, floor: float) -> NDArray[np.float64]:
-    if strength <= 0:
-        return case.net
-    est = solve.fused_solve(case.readout, case.matrix, case.net, case.std, strength, floor)
+def _fused(case: Case, strength: float, floor: float, weight: NDArray[np.float64] | None = None
+           ) -> NDArray[np.float64]:
+    """The model operating point's SPD for this photo with candidate settings: the product's own
+    fusion (:func:`cd_spectra_addon.core.inverse.stages.fuse`)."""
+    est = fuse(case.reading, case.physics, case.net, case.std, strength, floor, weight)
     return est if est.max() > 0 else case.net
 
 
@@ -214,7 +204,7 @@ def choose_bands(cases: list[Case], strength: float, floor: float,
     weight = band_weight([r["network"] for r in rows])
     fused = [_peak1(_fused(c, strength, floor)) for c in cases]
     prior = [_peak1(c.physics) for c in cases]
-    blended = [solve.band_blend(c.readout, c.matrix, _fused(c, strength, floor), c.physics, weight) for c in cases]
+    blended = [_fused(c, strength, floor, weight) for c in cases]
     blend_err = np.array([band_mae(e, c.truth) for e, c in zip(blended, cases)])
     for k, row in enumerate(rows):
         row["mae_blend"] = float(np.mean(blend_err[:, k]))

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.spectrum import solve
-from cd_spectra_addon.core.inverse.prepare import prepare
+from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.scene.capture import load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
                 path = Path(tmp) / f"p.{fmt}"
                 photo.write_photo(path, img, fmt)
                 loaded = load_photo(path, max_side=4096)
-                analysis = prepare(loaded, preset, cam, fit=truth, pixels=px)  # the product's path, true pose
+                analysis = read_photo(loaded, preset, cam, fit=truth, pixels=px)  # the product's path, true pose
                 cases.append((analysis.readout, analysis.matrix, spd, fmt))
     rows = []
     for smooth, strength in itertools.product(SMOOTHNESS, STRENGTHS):

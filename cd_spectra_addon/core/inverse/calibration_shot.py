@@ -1,7 +1,7 @@
 """A calibration shot through the product's own inverse path: photo of a known lamp → gains.
 
 Kept apart from :mod:`.calibration` (the profile data, its fit and its files) because it runs
-the estimator's loading chain — :func:`.analysis.prepare` — which itself applies calibrations:
+the estimator's stages — :func:`.stages.read_photo` — which themselves apply calibrations:
 the same pose fit, masks, focal length and "no rainbow" refusal as an estimate, so a photo that
 could not be estimated cannot become a calibration either.
 """
@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .prepare import Analysis, prepare
+from .stages import Reading, read_photo
 from ..calibration.calibration import (PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, PIPELINE_SMOOTH_BINS, Calibration, fit_gains,
                           new_metadata, save_calibration)
 from ..calibration.camera_fit import CameraPrior, fit_sensitivities
@@ -48,7 +48,7 @@ def _check_reference(reference_spd: NDArray[np.float64]) -> NDArray[np.float64]:
 def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], preset: Preset, camera: CameraProfile,
                     generic_camera: bool = False, pipeline: bool | None = None, prior: CameraPrior | None = None,
                     name: str = "calibration", metadata: dict[str, Any] | None = None
-                    ) -> tuple[Calibration, Analysis]:
+                    ) -> tuple[Calibration, Reading]:
     """The calibration a loaded photo of a known lamp gives, and the photo's analysis with it.
 
     In order: for an in-camera file (``pipeline`` None: when the loader judged it processed) the
@@ -58,7 +58,7 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
     nobody's camera); last, per-bin gains for what is left."""
     ref = _check_reference(reference_spd)
     try:
-        analysis = prepare(image, preset, camera, generic_camera=generic_camera)
+        analysis = read_photo(image, preset, camera, generic_camera=generic_camera)
     except NoDiscError as exc:
         raise NoDiscError(f"{exc} — calibration needs a photo of the disc lit by the known lamp, taken like the "
                           "later photos") from exc
@@ -77,12 +77,12 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
             observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[readout.pixels.index]
             fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None])
             undo = Calibration("pipeline", np.ones_like(predicted), preset.name, camera.name, {}, fitted)
-            analysis = prepare(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit)
+            analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit)
         if prior is not None:
             sensitivities = fit_sensitivities(analysis.uncalibrated, analysis.response, ref, prior)
             own = CameraProfile(camera.name, sensitivities)
     if sensitivities is not None:
-        analysis = replace(analysis, camera=own, matrix=feature_matrix(analysis.response, own))
+        analysis = replace(analysis, posed=replace(analysis.posed, camera=own), matrix=feature_matrix(analysis.response, own))
     predicted = np.einsum("bcl,l->bc", analysis.matrix, ref)
     limits = {} if fitted is None else {"min_signal": PIPELINE_MIN_SIGNAL, "limits": PIPELINE_GAIN_LIMITS,
                                            "smooth_bins": PIPELINE_SMOOTH_BINS}
@@ -91,7 +91,7 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
 
 
 def gains_from_image(image: LinearImage, reference_spd: NDArray[np.float64], preset: Preset,
-                     camera: CameraProfile, generic_camera: bool = False) -> tuple[NDArray[np.float64], Analysis]:
+                     camera: CameraProfile, generic_camera: bool = False) -> tuple[NDArray[np.float64], Reading]:
     """Per-bin gains only (no pipeline, no fitted camera): for camera-native photos with a
     measured profile, and the gains-only baseline."""
     cal, analysis = fit_calibration(image, reference_spd, preset, camera, generic_camera, pipeline=False)

@@ -20,22 +20,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..spectra import colour
-from .prepare import (DIM_LEVEL_8BIT, MAX_SATURATED_SHARE, MIN_RAINBOW_CONTRAST, Analysis, focal_px_for,
-                       network_inputs, physics_spd, prepare)
+from ..spectra.colour import DEFAULT_WORKING_SPACE
+from .stages import DIM_LEVEL_8BIT, OPERATING_POINTS, Reading, pose_photo, read_posed, spectrum
 from ..calibration.calibration import Calibration, load_calibration
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from ..scene.capture import DEFAULT_PRESET, Preset, Scene, load_preset
 from ..planning.capture_advice import capture_angles, coverage_advice
 from ..readout.colour_check import wavelength_shift_nm
-from ..errors import CDSpectraError, PhotoError
+from ..errors import CDSpectraError
 from .load import load_for_estimate
 from ..photo.images import LinearImage
 from ..spectrum.model import SpectralModel, load_model
 from ..pose.result import PoseFit, colour_blur_nm
 from ..readout.readout import Readout
-from .result import DiscFit, Estimate
-from ..spectrum.solve import GaussianPrior, band_blend, fused_solve
+from .result import METHOD_MODEL, DiscFit, Estimate
 from ..spectra.grid import WAVELENGTHS_NM
 
 AUTO = "auto"  # the camera profile from the photo's EXIF
@@ -117,35 +116,6 @@ def resolve_camera(name: str, image: LinearImage, model: SpectralModel | None
     return cam, generic, fallback, note
 
 
-def _prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float64]] | None:
-    if model is None or "prior" not in model.metadata:
-        return None
-    cached = model.metadata.get("_prior_cache")
-    if cached is None:
-        p = model.metadata["prior"]
-        prior = GaussianPrior(np.asarray(p["mean"]), np.asarray(p["covariance"]))
-        cached = (prior, prior.precision())
-        model.metadata["_prior_cache"] = cached
-    return cached
-
-
-def _fusion(model: SpectralModel, calibrated: bool = False) -> tuple[float, float]:
-    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built:
-    a calibrated photo's camera is known better, so it may trust the photo more."""
-    f = model.metadata.get("fusion") or {}
-    if calibrated and "calibrated_strength" in f:
-        return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
-    return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
-
-
-def _band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.float64] | None:
-    """w(λ) of the network against physics + prior (1 = network), chosen per band on synthetic
-    photos when the model was built; None (the network everywhere) for a model without one."""
-    f = model.metadata.get("fusion") or {}
-    w = f.get("calibrated_band_weight") if calibrated and "calibrated_band_weight" in f else f.get("band_weight")
-    return None if w is None else np.asarray(w, dtype=np.float64)
-
-
 def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Per λ₁ bin, the share of the readout's pixel weight (Σ visibility²) that ``mask`` flags."""
     px = readout.pixels
@@ -157,7 +127,7 @@ def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]
     return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
 
 
-def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Analysis,
+def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Reading,
                 image: LinearImage | None, generic: bool, focal_source: str,
                 preset: Preset | None = None) -> tuple[float, list[str], dict]:
     """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
@@ -269,22 +239,23 @@ def estimate_image(
     preset: str | Preset = DEFAULT_PRESET,
     camera: str = AUTO,
     calibration: str | Calibration | None = None,
-    working_space: str = "Linear Rec.709",
+    working_space: str = DEFAULT_WORKING_SPACE,
     model: SpectralModel | None | str = "shipped",
     focal_px: float | None = None,
     progress: Progress | None = None,
-    method: str = "model",
+    method: str = METHOD_MODEL,
     fit: PoseFit | None = None,
     fusion: tuple[float, float] | None = None,
 ) -> Estimate:
     """Estimate from an already loaded photo (see :func:`estimate_photo`).
 
-    ``method``: "model" (physics + prior + network, the product), "prior" (physics under the
-    Gaussian prior only) or "physics" (smoothness-regularised physics only) — the benchmark's
-    operating points.
+    ``method``: one of :data:`.stages.OPERATING_POINTS` — "model" (physics + prior + network, the
+    product), "prior" (physics under the Gaussian prior only) or "physics" (smoothness-regularised
+    physics only), the benchmark's operating points. ``fusion`` overrides the model's (strength,
+    floor).
     """
-    if method not in ("model", "prior", "physics"):
-        raise CDSpectraError(f"unknown method {method!r}")
+    if method not in OPERATING_POINTS:
+        raise CDSpectraError(f"unknown method {method!r}; known: {', '.join(OPERATING_POINTS)}")
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
@@ -295,31 +266,16 @@ def estimate_image(
         cam, generic = solving_camera(cam, generic, cal)
         camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
     report(0.2, "Finding the disc")
-    analysis = prepare(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
+    posed = pose_photo(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
+    report(0.5, "Reading the rainbow")
+    analysis = read_posed(posed)
     readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
     matrix = analysis.matrix
-    e_phys = physics_spd(analysis, _prior(mdl) if method != "physics" else None)
-    if not np.any(e_phys > 0):
-        raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
+    result = spectrum(analysis, method, mdl, fusion)
+    spd, std, e_phys, unusable = result.spd, result.std, result.physics, result.fallback
     sigma = analysis.scene.preset.light.lobe_sigma
-    if mdl is not None and method == "model":
-        x = network_inputs(analysis, e_phys)
-        net, std = mdl.predict(x)
-        strength, floor = fusion or _fusion(mdl, calibrated=cal is not None)
-        spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
-        weight = _band_weight(mdl, calibrated=cal is not None)
-        if weight is not None and np.any(weight < 1.0):
-            spd = band_blend(readout, matrix, spd, e_phys, weight)
-    else:
-        spd, std = e_phys / e_phys.max(), np.full(e_phys.shape, np.nan)
-    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
-    unusable = not spd.max() > 0  # the network returned nothing usable (all zero, negative or NaN)
-    if unusable:
-        spd = e_phys / e_phys.max()
-    spd = spd / spd.max()
-    std = np.nan_to_num(std, nan=0.25, posinf=1.0)
     t3 = time.perf_counter()
     report(0.9, "Colour")
     confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source, preset_obj)
@@ -346,7 +302,7 @@ def estimate_image(
                         "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
                         "same kind of file")
         confidence *= PROCESSED_CONFIDENCE
-    if unusable and mdl is not None and method == "model":
+    if unusable:
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
     light = colour.spectral_colour(spd, working_space)
@@ -370,7 +326,7 @@ def estimate_image(
         rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
         disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
         calibration=None if cal is None else cal.name,
-        model_version=(mdl.version if mdl else "") + ("" if method == "model" else f" ({method} only)"),
+        model_version=(mdl.version if mdl else "") + ("" if method == METHOD_MODEL else f" ({method} only)"),
         working_space=working_space,
         extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
                "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
@@ -385,10 +341,10 @@ def estimate_photo(
     preset: str | Preset = DEFAULT_PRESET,
     camera: str = AUTO,
     calibration: str | Calibration | None = None,
-    working_space: str = "Linear Rec.709",
+    working_space: str = DEFAULT_WORKING_SPACE,
     model: SpectralModel | None | str = "shipped",
     progress: Progress | None = None,
-    method: str = "model",
+    method: str = METHOD_MODEL,
 ) -> Estimate:
     """The lamp's SPD from a CD photo (JPEG/PNG/TIFF/EXR). Raises CDSpectraError subclasses with
     a message for the user on bad input; never returns NaN."""

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .prepare import focal_px_for, focal_px_of
+from .stages import focal_px_for, focal_px_of
 from ..scene.capture import Preset, Scene
 from ..photo.images import LinearImage, PhotoReader
 

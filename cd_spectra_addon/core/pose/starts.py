@@ -37,7 +37,7 @@ from ..planning.capture_advice import glint_px
 from ..scene.capture import Preset, Scene
 from ..scene.diffraction import pixel_diffraction
 from ..scene.kernel import turn_between
-from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, mirror_point, near_axis,
+from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, near_axis,
                                    nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
                                    with_disc_centre_at, with_lamp_mirrored_at)
 from .rim_ellipse import Ellipse, circle_poses

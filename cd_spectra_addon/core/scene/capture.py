@@ -325,7 +325,6 @@ class Scene:
         """Full-pose entries, only for presets that use them (keeps the original presets'
         geometry, and the basis-cube cache keys hashed from it, unchanged)."""
         extra: dict[str, Any] = {}
-        cam = self.preset.camera
         if not self.looks_straight_down:
             extra["camera_look_at_mm"] = (self.camera_look_at * 1e3).tolist()
             extra["camera_rotation"] = self.camera_rotation.tolist()

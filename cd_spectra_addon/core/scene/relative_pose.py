@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capture import Camera, Light, Pose, Preset, Scene
-from .kernel import camera_rays, diffraction_along, index_rays, project, rotation_about, rotation_xy, turn_between
+from .kernel import camera_rays, diffraction_along, project, rotation_about, rotation_xy, turn_between
 
 __all__ = ["RelativePose", "N_PARAMS", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
            "aimed_at", "mirror_point", "with_glint_at", "with_lamp_mirrored_at", "with_disc_centre_at", "near_axis", "with_lamp_distance",

@@ -1,0 +1,359 @@
+"""The inverse in stages — load → pose → readout → spectrum — the same for every caller.
+
+1. **load** (:func:`.load.load_for_estimate`): the photo decoded and linearised at the size the
+   estimate reads, a window around a small disc;
+2. **pose** (:func:`pose_photo`): the over-exposure refusal, the greyscale-photo camera collapse,
+   the focal length (EXIF, else the preset's), a calibration's in-camera processing undone, and
+   the pose fit (:mod:`..pose.fit`; its start strategies by name, :data:`..pose.starts.STRATEGIES`);
+3. **readout** (:func:`read_posed`): room light measured on the dark disc and removed, the λ₁
+   readout, a calibration's gains, the "no rainbow" refusal with what to move, and the forward
+   matrix;
+4. **spectrum** (:func:`spectrum`): one of the operating points in :data:`OPERATING_POINTS` —
+   physics only, physics + prior, or the shipped model (physics + prior, the network, their
+   fusion and per-band blend, :func:`fuse`).
+
+Colour, confidence and the result are :mod:`.estimate`'s. The estimator, the calibration shot,
+dataset building, fusion tuning and the evaluations all run these functions rather than their
+own copies of the steps, so a dataset sample and a product estimate of the same photo see
+identical features (tests/test_inverse_path.py) and an evaluation measures the product.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..readout.ambient import dark_offset, readout_pixels, rough_offset
+from ..calibration.calibration import Calibration
+from ..spectra.cameras import CameraProfile
+from ..scene.capture import Preset, Scene
+from ..planning.capture_advice import advice_for_photo
+from ..scene.diffraction import LobePixels, PixelDiffraction
+from ..errors import CDSpectraError, NoDiscError, PhotoError
+from ..readout.forward_matrix import bin_response, feature_matrix
+from ..photo.images import ExifInfo, LinearImage
+from ..spectrum.model import SpectralModel, model_inputs
+from ..pose.fit import fit_pose
+from ..pose.result import PoseFit
+from ..readout.readout import Readout, extract_readout
+from ..spectrum.solve import GaussianPrior, band_blend, fused_solve, physics_solve, prior_solve
+from ..pose.starts import CHEAP, ESCALATIONS
+from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
+
+MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
+MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum is worth solving for
+MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
+# An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
+# quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
+# 0.3 % the rainbow is no longer found (bench/reliability.md).
+DIM_LEVEL_8BIT = 0.01
+
+__all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "fuse",
+           "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "focal_px_for", "focal_px_of",
+           "physics_spd", "network_inputs", "MIN_RAINBOW_CONTRAST", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+
+
+@dataclass
+class Posed:
+    """A photo after the pose stage: what the readout needs, in the photo's loaded pixels."""
+
+    image: LinearImage
+    preset: Preset
+    camera: CameraProfile  # the sensitivities solved with (collapsed to grey for a greyscale photo)
+    generic_camera: bool
+    calibration: Calibration | None
+    rgb: NDArray[np.float64]  # camera-native linear RGB (a calibration's in-camera processing undone)
+    excluded: NDArray[np.bool_]  # clipped or not-a-number pixels
+    clipped_share: float
+    focal_px: float
+    focal_source: str  # "exif", "exif-35mm", "preset" or "given"
+    fit: PoseFit
+    timing_ms: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class Reading:
+    """Everything the solve needs about one photo: its pose and its readout with the forward matrix."""
+
+    posed: Posed
+    scene: Scene
+    readout: Readout  # after the calibration's gains, when there is one
+    uncalibrated: Readout  # as measured (what a calibration shot fits its gains to)
+    response: NDArray[np.float64]  # R[bin, λ] without the camera
+    matrix: NDArray[np.float64]  # (NB, 3, 81) feature forward matrix with the solving camera
+    ambient: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))  # offset removed per channel
+    timing_ms: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def fit(self) -> PoseFit:
+        return self.posed.fit
+
+    @property
+    def camera(self) -> CameraProfile:
+        return self.posed.camera
+
+    @property
+    def generic_camera(self) -> bool:
+        return self.posed.generic_camera
+
+    @property
+    def focal_px(self) -> float:
+        return self.posed.focal_px
+
+    @property
+    def focal_source(self) -> str:
+        return self.posed.focal_source
+
+    @property
+    def calibration(self) -> Calibration | None:
+        return self.posed.calibration
+
+
+def focal_px_for(image: LinearImage, preset: Preset) -> tuple[float, str]:
+    """Focal length in loaded pixels and where it came from.
+
+    EXIF FocalLength × FocalPlaneXResolution is exact for the sensor's pixels; the 35 mm
+    equivalent assumes the long side spans 36 mm; otherwise the preset's field of view.
+    """
+    return focal_px_of(image.exif, image.rgb.shape[1], image.scale, image.displayed_size, preset)
+
+
+def focal_px_of(exif: ExifInfo, width: int, scale: float, displayed_size: tuple[int, int],
+                preset: Preset) -> tuple[float, str]:
+    """:func:`focal_px_for` of an image ``width`` loaded pixels wide at ``scale`` original pixels
+    per loaded one, from a photo of ``displayed_size``: known before the pixels are decoded."""
+    if exif.focal_length_mm and exif.focal_plane_px_per_mm:
+        value = exif.focal_length_mm * exif.focal_plane_px_per_mm / scale
+        if math.isfinite(value) and value > 0:
+            return value, "exif"
+    if exif.focal_length_35mm:
+        value = exif.focal_length_35mm / 36.0 * max(displayed_size) / scale  # a window keeps the pitch
+        if math.isfinite(value) and value > 0:
+            return value, "exif-35mm"
+    cam = preset.camera
+    return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
+
+
+def _with_gains(readout: Readout, calibration: Calibration | None) -> Readout:
+    if calibration is None:
+        return readout
+    gains = calibration.gains
+    return replace(readout, values=readout.values / gains, noise=readout.noise / gains)
+
+
+def pose_photo(
+    image: LinearImage,
+    preset: Preset,
+    camera: CameraProfile,
+    *,
+    generic_camera: bool = False,
+    calibration: Calibration | None = None,
+    focal_px: float | None = None,
+    fit: PoseFit | None = None,
+    strategies: Sequence[str] = CHEAP,
+    escalations: Sequence[str] = ESCALATIONS,
+) -> Posed:
+    """The pose stage (see the module doc). ``fit`` skips the pose fit (training reuses fits of
+    its capture geometries; an evaluation injects pose errors); ``focal_px`` overrides EXIF;
+    ``strategies``/``escalations`` name the pose fit's starts. Raises :class:`PhotoError` for a
+    photo clipped almost everywhere."""
+    t0 = time.perf_counter()
+    clipped = float(np.mean(image.saturated))
+    if clipped > MAX_SATURATED_SHARE:
+        raise PhotoError(f"{image.path or 'the photo'}: over-exposed, {100 * clipped:.0f}% of the photo is clipped "
+                         "at full scale — use a much shorter exposure (or dim the lamp)")
+    if image.is_grey:
+        camera = CameraProfile(camera.name, np.repeat(camera.sensitivities.sum(axis=1, keepdims=True) / 3.0, 3,
+                                                      axis=1))
+    source = "given"
+    if focal_px is None:
+        focal_px, source = focal_px_for(image, preset)
+    rgb = np.asarray(image.rgb, dtype=np.float64)
+    if calibration is not None and calibration.pipeline is not None:
+        rgb = calibration.pipeline.to_native(rgb)  # undo the camera's matrix and tone curve (JPEG/HEIC)
+    excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
+    if fit is None:
+        fit = fit_pose(rgb - rough_offset(rgb, excluded), preset, focal_px, sensitivities=camera.sensitivities,
+                       saturated=excluded, strategies=strategies, escalations=escalations)
+    return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
+                 rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
+                 fit=fit, timing_ms={"geometry": (time.perf_counter() - t0) * 1e3})
+
+
+def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
+    """The readout stage (see the module doc). ``pixels`` are the fitted scene's per-pixel
+    diffraction coordinates when the caller already has them (a cache: they depend on the scene
+    alone). Raises :class:`NoDiscError` where no CD rainbow is found, saying what to move."""
+    t1 = time.perf_counter()
+    image, rgb, excluded, fit = posed.image, posed.rgb, posed.excluded, posed.fit
+    height, width, _ = rgb.shape
+    scene = fit.scene(posed.preset, (width, height))
+    # Without a cache, the kernel is evaluated only where the lobe can be visible or the dark
+    # is uncertain: the same readout and offset as from every pixel (tests/test_pixel_survey.py).
+    lobe: PixelDiffraction | LobePixels = readout_pixels(scene) if pixels is None else pixels
+    ambient = dark_offset(rgb, scene, excluded, lobe)
+    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, excluded, scene,
+                               lobe.pixels if isinstance(lobe, LobePixels) else lobe)
+    t2 = time.perf_counter()
+    readout = _with_gains(measured, posed.calibration)
+    if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
+        name = Path(image.path).name or "the photo"
+        hint = ""
+        if posed.clipped_share > 0.2:
+            hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
+        elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
+            hint = " (the photo is very dark: try a longer exposure)"
+        advice = advice_for_photo(posed.preset, scene, fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST, rgb, excluded,
+                                  posed.focal_px)
+        raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
+    response = bin_response(scene, readout)
+    t3 = time.perf_counter()
+    return Reading(posed=posed, scene=scene, readout=readout, uncalibrated=measured, response=response,
+                   matrix=feature_matrix(response, posed.camera), ambient=ambient,
+                   timing_ms={**posed.timing_ms, "profile": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
+
+
+def read_photo(image: LinearImage, preset: Preset, camera: CameraProfile, *,
+               pixels: PixelDiffraction | None = None, **pose_options: Any) -> Reading:
+    """Pose and readout stages in one call (``pose_options``: those of :func:`pose_photo`)."""
+    return read_posed(pose_photo(image, preset, camera, **pose_options), pixels)
+
+
+def physics_spd(reading: Reading, prior: tuple[GaussianPrior, NDArray[np.float64]] | None) -> NDArray[np.float64]:
+    """The physics solve in the photo's units: under the Gaussian prior (with its precision
+    matrix) when given, else smoothness-regularised only."""
+    if prior is not None:
+        return prior_solve(reading.readout, reading.matrix, prior[0], precision=prior[1])
+    return physics_solve(reading.readout, reading.matrix)
+
+
+def network_inputs(reading: Reading, physics: NDArray[np.float64]) -> NDArray[np.float32]:
+    """The learned model's input vector for this photo (layout: :data:`..spectrum.model.INPUT_LAYOUT`)."""
+    return model_inputs(reading.readout, reading.camera.sensitivities, physics,
+                        reading.scene.preset.light.lobe_sigma, reading.generic_camera, reading.fit.residual)
+
+
+# --------------------------------------------------------------------------- the spectrum stage
+
+@dataclass(frozen=True)
+class Spectrum:
+    """An operating point's answer: the SPD (peak 1, finite, non-negative), its uncertainty
+    (NaN where the operating point gives none), and the physics solve it started from (peak 1)."""
+
+    spd: NDArray[np.float64]
+    std: NDArray[np.float64]
+    physics: NDArray[np.float64]
+    fallback: bool = False  # the network gave nothing usable: the physics solve is shown
+
+
+def model_prior(model: SpectralModel | None) -> tuple[GaussianPrior, NDArray[np.float64]] | None:
+    """The Gaussian prior (and its precision) that comes with ``model``, cached on it."""
+    if model is None or "prior" not in model.metadata:
+        return None
+    cached = model.metadata.get("_prior_cache")
+    if cached is None:
+        p = model.metadata["prior"]
+        prior = GaussianPrior(np.asarray(p["mean"]), np.asarray(p["covariance"]))
+        cached = (prior, prior.precision())
+        model.metadata["_prior_cache"] = cached
+    return cached
+
+
+def fusion_settings(model: SpectralModel, calibrated: bool = False) -> tuple[float, float]:
+    """(strength, floor) of the final solve, chosen on synthetic photos when the model was built:
+    a calibrated photo's camera is known better, so it may trust the photo more."""
+    f = model.metadata.get("fusion") or {}
+    if calibrated and "calibrated_strength" in f:
+        return float(f["calibrated_strength"]), float(f.get("calibrated_floor", 0.05))
+    return float(f.get("strength", 0.0)), float(f.get("floor", 0.05))
+
+
+def band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.float64] | None:
+    """w(λ) of the network against physics + prior (1 = network), chosen per band on synthetic
+    photos when the model was built; None (the network everywhere) for a model without one."""
+    f = model.metadata.get("fusion") or {}
+    w = f.get("calibrated_band_weight") if calibrated and "calibrated_band_weight" in f else f.get("band_weight")
+    return None if w is None else np.asarray(w, dtype=np.float64)
+
+
+def fuse(reading: Reading, physics: NDArray[np.float64], net: NDArray[np.float64], std: NDArray[np.float64],
+         strength: float, floor: float, weight: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """The model operating point's final SPD from its parts: the network's SPD (and uncertainty)
+    fused with the photo's features, then blended per band with physics + prior by ``weight``.
+    Fusion tuning calls this with candidate settings; the estimator with the model's own."""
+    readout, matrix = reading.readout, reading.matrix
+    spd = fused_solve(readout, matrix, net, std, strength, floor) if strength > 0 else net
+    if weight is not None and np.any(weight < 1.0):
+        spd = band_blend(readout, matrix, spd, physics, weight)
+    return spd
+
+
+def _finished(spd: NDArray[np.float64], std: NDArray[np.float64], physics: NDArray[np.float64]) -> Spectrum:
+    spd = np.nan_to_num(np.clip(spd, 0.0, None), nan=0.0, posinf=0.0)
+    fallback = not spd.max() > 0  # nothing usable (all zero, negative or NaN)
+    if fallback:
+        spd = physics
+    return Spectrum(spd=spd / spd.max(), std=np.nan_to_num(std, nan=0.25, posinf=1.0), physics=physics,
+                    fallback=fallback)
+
+
+def _physics_point(reading: Reading, model: SpectralModel | None, calibrated: bool,
+                   fusion: tuple[float, float] | None) -> Spectrum:
+    return _solved(reading, None)
+
+
+def _prior_point(reading: Reading, model: SpectralModel | None, calibrated: bool,
+                 fusion: tuple[float, float] | None) -> Spectrum:
+    return _solved(reading, model_prior(model))
+
+
+def _solved(reading: Reading, prior: tuple[GaussianPrior, NDArray[np.float64]] | None) -> Spectrum:
+    e = _physics(reading, prior)
+    return _finished(e, np.full(e.shape, np.nan), e)
+
+
+def _physics(reading: Reading, prior: tuple[GaussianPrior, NDArray[np.float64]] | None) -> NDArray[np.float64]:
+    e = physics_spd(reading, prior)
+    if not np.any(e > 0):
+        raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
+    return e / e.max()
+
+
+def _model_point(reading: Reading, model: SpectralModel | None, calibrated: bool,
+                 fusion: tuple[float, float] | None) -> Spectrum:
+    if model is None:
+        return _prior_point(reading, model, calibrated, fusion)
+    e = physics_spd(reading, model_prior(model))
+    if not np.any(e > 0):
+        raise PhotoError("the photo holds no usable rainbow signal (is the lamp on and the disc lit?)")
+    net, std = model.predict(network_inputs(reading, e))
+    strength, floor = fusion or fusion_settings(model, calibrated)
+    spd = fuse(reading, e, net, std, strength, floor, band_weight(model, calibrated))
+    return _finished(spd, std, e / e.max())
+
+
+OperatingPoint = Callable[[Reading, "SpectralModel | None", bool, "tuple[float, float] | None"], Spectrum]
+# The benchmark's operating points, by the names estimates report (METHOD_* in .result).
+OPERATING_POINTS: dict[str, OperatingPoint] = {
+    METHOD_PHYSICS: _physics_point,  # smoothness-regularised physics only
+    METHOD_PRIOR: _prior_point,  # physics under the synthetic Gaussian prior
+    METHOD_MODEL: _model_point,  # physics + prior, the network, their fusion and per-band blend (the product)
+}
+
+
+def spectrum(reading: Reading, method: str, model: SpectralModel | None,
+             fusion: tuple[float, float] | None = None) -> Spectrum:
+    """The spectrum stage: the operating point ``method`` (see :data:`OPERATING_POINTS`).
+    ``fusion`` overrides the model's (strength, floor)."""
+    point = OPERATING_POINTS.get(method)
+    if point is None:
+        raise CDSpectraError(f"unknown method {method!r}; known: {', '.join(OPERATING_POINTS)}")
+    calibrated = reading.calibration is not None
+    return point(reading, model, calibrated, fusion)
