@@ -40,7 +40,6 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.spectra import colour as colour_core
-from cd_spectra_addon.core.readout.ambient import rough_offset
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.stages import pose_photo
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
@@ -48,9 +47,7 @@ from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, SETUP_PRESETS, P
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
-from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
-from cd_spectra_addon.core.pose.fit import fit_pose
 from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.planning.capture_advice import capture_angles
 from cd_spectra_addon.core.scene.relative_pose import near_axis
