@@ -19,7 +19,7 @@ from typing import Any, Sequence
 
 import bpy
 
-from ..core.spectra.colour import SpectralColour  # the colour of an SPD is the core's
+from ..core.spectra.colour import SpectralColour, spectral_colour  # noqa: F401  (re-exported: the colour of an SPD is the core's)
 from ..core.spectra.grid import N_BANDS, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
 
 GROUP_PREFIX = "CD Spectra SPD"

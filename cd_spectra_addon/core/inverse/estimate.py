@@ -318,7 +318,7 @@ def estimate_image(
         px_per_mm=focal_px / fit.distance_mm * s,
     )
     t4 = time.perf_counter()
-    timing = {"load": 0.0, **analysis.timing_ms, "solve": (t3 - t2) * 1e3, "colour": (t4 - t3) * 1e3,
+    timing = {"load": 0.0, **analysis.timing_ms, "spectrum": (t3 - t2) * 1e3, "colour": (t4 - t3) * 1e3,
               "total": (t4 - t0) * 1e3}
     report(1.0, "Done")
     return Estimate(

@@ -184,7 +184,7 @@ def pose_photo(
                        saturated=excluded, strategies=strategies, escalations=escalations)
     return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
-                 fit=fit, timing_ms={"geometry": (time.perf_counter() - t0) * 1e3})
+                 fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3})
 
 
 def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
@@ -217,7 +217,7 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
     t3 = time.perf_counter()
     return Reading(posed=posed, scene=scene, readout=readout, uncalibrated=measured, response=response,
                    matrix=feature_matrix(response, posed.camera), ambient=ambient,
-                   timing_ms={**posed.timing_ms, "profile": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
+                   timing_ms={**posed.timing_ms, "readout": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 
 def read_photo(image: LinearImage, preset: Preset, camera: CameraProfile, *,
