@@ -92,7 +92,7 @@ from .srgb import srgb_decode
 
 __all__ = [
     "LinearImage", "ExifInfo", "PhotoHeader", "DecodedPixels", "Decoder", "load_photo", "PhotoReader",
-    "register_decoder", "unregister_decoder", "SATURATION_8BIT", "SATURATION_16BIT",
+    "register_decoder", "unregister_decoder", "decoders_need_main_thread", "SATURATION_8BIT", "SATURATION_16BIT",
 ]
 
 SATURATION_8BIT = 250
@@ -147,6 +147,12 @@ def register_decoder(func: Decoder) -> None:
 def unregister_decoder(func: Decoder) -> None:
     if func in _decoders:
         _decoders.remove(func)
+
+
+def decoders_need_main_thread() -> bool:
+    """Whether a registered fallback decoder is in use: Blender's loader is, and bpy may only be
+    called from the main thread (a float TIFF loaded on a worker thread crashed the process)."""
+    return bool(_decoders)
 
 
 def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto",
