@@ -10,7 +10,7 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 3  # a bug in CD Spectra, not the user's input
@@ -67,6 +67,17 @@ def atomic_path(target: Path) -> Iterator[Path]:
         os.replace(tmp, target)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def write_preset_file(path: Path, data: dict[str, Any], option: str = "--write-preset") -> None:
+    """A capture preset as a .json file, whole or not at all (the core's one atomic JSON writer);
+    CDSpectraError (bad input) if the name or the folder is wrong."""
+    from ..core.atomic_files import write_json
+    from ..core.errors import CDSpectraError
+
+    if path.suffix.lower() != ".json":
+        raise CDSpectraError(f"{option} needs a .json file name, not {path.name!r}")
+    write_json(path, data)
 
 
 @contextlib.contextmanager

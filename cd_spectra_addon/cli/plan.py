@@ -16,13 +16,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
 from ..core.errors import CDSpectraError
-from .common import UsageError
+from .common import UsageError, write_preset_file
 
 NAME = "plan"
 HELP = "where to put the lamp and the camera for the equipment you have"
@@ -50,22 +48,6 @@ def _equipment(args: argparse.Namespace) -> "Equipment":
     return Equipment(lamp_distance_mm=args.lamp_distance_mm, lamp_size_mm=args.lamp_size_mm,
                      focal_mm=args.focal_mm, sensor_width_mm=args.sensor_width_mm, phone=bool(args.phone),
                      f_number=args.f_number, lamp_housing_mm=args.lamp_housing_mm, min_focus_mm=args.min_focus_mm)
-
-
-def _write_preset(path: Path, data: dict) -> None:
-    if path.suffix.lower() != ".json":
-        raise CDSpectraError(f"--write-preset needs a .json file name, not {path.name!r}")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise CDSpectraError(f"cannot write {path}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".plan-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(json.dumps(data, indent=2, ensure_ascii=False) + "\n")
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise CDSpectraError(f"cannot write {path}: {exc.strerror or exc}") from exc
 
 
 def _text(plan: object) -> str:
@@ -100,7 +82,7 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
                             "facing": list(b.axes[2]), "passes_source": b.passes_source} for b in plan.setup.bodies],
                 "steps": plan.instructions(),
             }
-            _write_preset(args.write_preset, preset)
+            write_preset_file(args.write_preset, preset)
     except CDSpectraError as exc:
         raise UsageError(str(exc)) from exc
     out(json.dumps(plan.to_dict(), indent=2, ensure_ascii=False) if args.json else _text(plan))

@@ -11,9 +11,7 @@ known SPD. Stored as a small JSON profile and divided out of later photos' profi
 from __future__ import annotations
 
 import json
-import os
 import re
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .camera_pipeline import CameraPipeline
+from ..atomic_files import write_json
 from ..errors import CDSpectraError
 from ..spectra.grid import FEATURE_LAMBDA_NM, N_FEATURES, WAVELENGTHS_NM
 from ..user_folders import ENV_DIR, calibration_dir, set_default_directory
@@ -106,15 +105,9 @@ def save_calibration(calibration: Calibration, directory: Path | None = None) ->
     folder = Path(directory) if directory else calibration_dir()
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        path = folder / f"{_safe_name(calibration.name)}.json"
-        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-", suffix=".json")
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            json.dump(calibration.to_json(), handle, indent=1)
-            handle.write("\n")
-        os.replace(tmp, path)
     except OSError as exc:
         raise CDSpectraError(f"cannot write the calibration profile to {folder}: {exc.strerror or exc}") from exc
-    return path
+    return write_json(folder / f"{_safe_name(calibration.name)}.json", calibration.to_json(), indent=1)
 
 
 def load_calibration(name_or_path: str | Path, directory: Path | None = None) -> Calibration:

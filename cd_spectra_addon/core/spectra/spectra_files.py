@@ -9,7 +9,7 @@ reader from the file's content and extension. Values are resampled onto the prod
 
 Writing: CSV, JSON (values + metadata), pbrt-v4 ``.spd``, TM-27-14 XML and Mitsuba's
 ``λ:value`` list. Every writer is
-atomic: it writes a temporary file in the target folder and renames it over the target
+atomic (:mod:`..atomic_files`): it writes a temporary file in the target folder and renames it over the target
 (``os.replace``), so a crash, a full disk or an exception mid-write leaves the previous file
 as it was and never a half-written one. Failures raise :class:`CDSpectraError` with a message
 for the user.
@@ -26,7 +26,6 @@ import locale
 import math
 import os
 import re
-import secrets
 import unicodedata
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..atomic_files import atomic_write as _atomic_write, write_bytes as _write_bytes
 from ..errors import CDSpectraError
 from .grid import N_BANDS, WAVELENGTHS_NM, resample_to_grid
 
@@ -167,54 +167,6 @@ def _number(value: float) -> str:
 
 def _wavelength(value: float) -> str:
     return f"{float(value):g}"
-
-
-def _atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
-    """Write through ``write(temp_path)`` into the target's folder, then rename over the target.
-
-    The temporary name is reserved with O_EXCL (no clash with another writer) and created
-    with mode 0o666 so the umask applies as for any new file. Whatever goes wrong, the
-    temporary file is removed and the previous target is untouched.
-    """
-    target = Path(path)
-    folder = target.parent
-    try:
-        if target.is_dir():
-            raise CDSpectraError(f"cannot write {target}: it is a folder")
-        if not folder.is_dir():
-            raise CDSpectraError(f"cannot write {target.name}: the folder {folder} does not exist")
-    except OSError as exc:  # a name too long, a loop of links, ...
-        raise CDSpectraError(f"cannot write {target}: {exc.strerror or exc}") from exc
-    try:
-        while True:
-            temp = folder / f".{target.name[:40]}.{secrets.token_hex(4)}.tmp"
-            try:
-                os.close(os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-                break
-            except FileExistsError:
-                continue
-    except OSError as exc:
-        raise CDSpectraError(f"cannot write in {folder}: {exc.strerror or exc}") from exc
-    try:
-        write(temp)
-        os.replace(temp, target)
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(temp)
-        if isinstance(exc, OSError):
-            raise CDSpectraError(f"cannot write {target}: {exc.strerror or exc}") from exc
-        raise
-    return target
-
-
-def _write_bytes(data: bytes) -> Callable[[Path], None]:
-    def write(temp: Path) -> None:
-        with open(temp, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())  # on disk before the rename makes it the real file
-
-    return write
 
 
 def _read_text(path: Path, what: str) -> str:
