@@ -1,6 +1,7 @@
-"""Where the user's calibration profiles live. Kept free of numpy and the solver so the Blender
-layer can point it at the extension's user folder while the add-on is enabled, without paying
-for the estimator's imports (enabling must stay ≤ 50 ms)."""
+"""Where the user's files live: calibration profiles and capture presets of their own (a set-up
+described by measurements). Kept free of numpy and the solver so the Blender layer can point
+these at the extension's user folders while the add-on is enabled, without paying for the
+estimator's imports (enabling must stay ≤ 50 ms)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ import os
 from pathlib import Path
 
 ENV_DIR = "CD_SPECTRA_CALIBRATION_DIR"
+PRESET_ENV_DIR = "CD_SPECTRA_PRESET_DIR"
 
 _default_dir: Path | None = None
+_default_preset_dir: Path | None = None
 
 
 def set_default_directory(path: Path | None) -> None:
@@ -17,6 +20,19 @@ def set_default_directory(path: Path | None) -> None:
     extension's user folder; None restores the default)."""
     global _default_dir
     _default_dir = None if path is None else Path(path)
+
+
+def set_default_preset_directory(path: Path | None) -> None:
+    """Where the user's own presets go (the Blender layer points this at the extension's user
+    folder; None restores the default)."""
+    global _default_preset_dir
+    _default_preset_dir = None if path is None else Path(path)
+
+
+def _config_dir() -> Path:
+    base = os.environ.get("APPDATA") or os.environ.get("XDG_CONFIG_HOME") or os.path.join(
+        os.path.expanduser("~"), ".config")
+    return Path(base) / "cd_spectra"
 
 
 def calibration_dir() -> Path:
@@ -27,6 +43,15 @@ def calibration_dir() -> Path:
         return Path(env)
     if _default_dir is not None:
         return _default_dir
-    base = os.environ.get("APPDATA") or os.environ.get("XDG_CONFIG_HOME") or os.path.join(
-        os.path.expanduser("~"), ".config")
-    return Path(base) / "cd_spectra" / "calibrations"
+    return _config_dir() / "calibrations"
+
+
+def preset_dir() -> Path:
+    """Where the user's own presets live: $CD_SPECTRA_PRESET_DIR, else the folder the host
+    application set, else the user's config folder (beside the calibrations)."""
+    env = os.environ.get(PRESET_ENV_DIR)
+    if env:
+        return Path(env)
+    if _default_preset_dir is not None:
+        return _default_preset_dir
+    return _config_dir() / "presets"

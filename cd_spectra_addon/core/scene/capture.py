@@ -8,12 +8,17 @@ position it is on the axis at ``distance_mm`` looking down −z with image rows 
 (``light.position_mm``, metres away too) and the disc may be tilted (``disc_tilt_deg``).
 Presets describe the nominal capture; a :class:`Pose` adds what a real user gets wrong
 (camera or lamp moved sideways, a tilted disc) on top of it.
+
+Presets ship in ``presets/``; a user's own (a set-up described by measurements,
+``planning.measured``) live in ``user_folders.preset_dir()`` and are found by name after the
+shipped ones, which they may not shadow.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -21,7 +26,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..atomic_files import write_json
 from ..errors import CDSpectraError
+from ..user_folders import preset_dir
 from ..validation import check_number, check_numbers
 from .kernel import camera_rays, intersect_plane, project, rotation_xy
 
@@ -52,8 +59,12 @@ __all__ = [
     "FAR_LIGHT_PRESET",
     "PAPER_PRESET",
     "preset_names",
+    "user_preset_names",
+    "preset_path",
     "load_preset",
     "preset_from_dict",
+    "user_preset_name",
+    "save_user_preset",
 ]
 
 
@@ -334,7 +345,62 @@ class Scene:
 
 
 def preset_names() -> list[str]:
+    """The presets that ship with the add-on."""
     return sorted(p.stem for p in PRESET_DIR.glob("*.json"))
+
+
+def user_preset_names() -> list[str]:
+    """The user's own presets (``user_folders.preset_dir()``), those a shipped one does not
+    shadow; none when the folder does not exist."""
+    folder = preset_dir()
+    try:
+        found = [p.stem for p in folder.glob("*.json") if not p.name.startswith(".")] if folder.is_dir() else []
+    except OSError:
+        return []
+    shipped = set(preset_names())
+    return sorted(name for name in found if name not in shipped)
+
+
+def preset_path(name_or_path: str | Path) -> Path:
+    """The file of a preset given by name (shipped first, then the user's own) or by path."""
+    path = Path(name_or_path)
+    if path.suffix:
+        return path
+    shipped = PRESET_DIR / f"{name_or_path}.json"
+    if shipped.is_file():
+        return shipped
+    mine = preset_dir() / f"{name_or_path}.json"
+    return mine if mine.is_file() else shipped
+
+
+def user_preset_name(name: str) -> str:
+    """``name`` made safe as a preset's file name (letters, digits, ``_`` and ``-``: a dot would
+    make ``--preset NAME`` read it as a file path). CDSpectraError if nothing is left of it or it
+    is a shipped preset's name (the shipped one would always win)."""
+    stem = re.sub(r"[^\w-]+", "_", str(name).strip(), flags=re.UNICODE).strip("_-")[:80]
+    if not stem:
+        raise CDSpectraError(f"a preset needs a name made of letters, digits, '-' or '_', not {name!r}")
+    if stem in preset_names():
+        raise CDSpectraError(f"{stem!r} is the name of a preset that ships with CD Spectra: choose another name")
+    return stem
+
+
+def save_user_preset(data: dict[str, Any], folder: Path | None = None) -> Path:
+    """Validate a preset (a dict shaped like a preset file, its name made file-safe) and write it
+    into the user's presets folder, whole or not at all; returns the file. ``load_preset(name)``,
+    ``estimate --preset NAME`` and Blender's preset menu find it there."""
+    name = user_preset_name(str(data.get("name", "")))
+    data = {**data, "name": name}
+    try:
+        _from_dict(data)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise CDSpectraError(f"preset {name!r} is not a valid preset: {exc}") from exc
+    target = Path(folder) if folder is not None else preset_dir()
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CDSpectraError(f"cannot make the presets folder {target}: {exc.strerror or exc}") from exc
+    return write_json(target / f"{name}.json", data)
 
 
 def preset_from_dict(data: dict[str, Any]) -> Preset:
@@ -431,13 +497,11 @@ def _validate_aim(camera: Camera) -> None:
 
 
 def load_preset(name_or_path: str | Path) -> Preset:
-    """A preset by name (``cd-default``) or from a JSON file path."""
-    path = Path(name_or_path)
-    if not path.suffix:
-        path = PRESET_DIR / f"{name_or_path}.json"
+    """A preset by name (``cd-default``, or one of the user's own), or from a JSON file path."""
+    path = preset_path(name_or_path)
     if not path.is_file():
         raise CDSpectraError(
-            f"unknown capture preset {str(name_or_path)!r}; known: {', '.join(preset_names())}"
+            f"unknown capture preset {str(name_or_path)!r}; known: {', '.join(preset_names() + user_preset_names())}"
         )
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
