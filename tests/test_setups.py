@@ -168,3 +168,116 @@ def test_shipped_presets_are_what_the_planner_designs_now():
     done = subprocess.run([sys.executable, str(REPO / "tools" / "design_setups.py"), "--check"],
                           capture_output=True, text=True, cwd=REPO)
     assert done.returncode == 0, done.stderr
+
+
+# --- lamp and camera anywhere: the first order on the curve v = 0 ---------------------------------
+
+
+def _v_by_hand(scene: Scene, points: np.ndarray) -> np.ndarray:
+    """(ωi + ωo)·t̂ at disc points, written out here (not the kernel): t̂ = n × r̂."""
+    lamp = np.asarray(scene.light_position) * 1e3
+    cam = np.asarray(scene.camera_position) * 1e3
+    n = scene.disc_normal
+    wi = (lamp - points) / np.linalg.norm(lamp - points, axis=-1, keepdims=True)
+    wo = (cam - points) / np.linalg.norm(cam - points, axis=-1, keepdims=True)
+    r_hat = points / np.linalg.norm(points, axis=-1, keepdims=True)
+    return np.sum((wi + wo) * np.cross(n, r_hat), axis=-1)
+
+
+def _measured_scene(lamp, camera, lamp_azimuth):
+    from cd_spectra_addon.core.planning.measured import Measurements, measured_setup
+
+    setup = measured_setup(Measurements(lamp[0], lamp[1], lamp_azimuth, camera[0], camera[1], 0.0, lamp_size_mm=3.0))
+    return setup, Scene(setup.preset)
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_for_coplanar_set_ups_the_curve_is_the_incidence_line_and_lambda_the_grating_equations(name):
+    """The root finder, run where lamp, camera and axis share a plane, finds the straight line."""
+    from cd_spectra_addon.core.planning.setups import first_order_curve, incidence_line
+
+    scene = Scene(load_setup(name).preset)
+    e = incidence_line(scene)
+    radii = np.linspace(1.0, 60.0, 119)
+    curve = first_order_curve(scene, radii)
+    for arm, sign in ((0, 1.0), (1, -1.0)):
+        points = curve.points_mm[arm]
+        assert np.allclose(points, sign * radii[:, None] * e[None, :], atol=1e-9), (name, arm)
+        lam = np.array([_grating_check(scene, e, sign * r)[0] for r in radii])
+        kernel_lam = _kernel_lambda1(scene, points)
+        assert np.allclose(np.abs(lam), kernel_lam, atol=1e-9)
+
+
+def _kernel_lambda1(scene: Scene, points: np.ndarray) -> np.ndarray:
+    from cd_spectra_addon.core.scene.kernel import diffraction_at
+
+    cam = np.asarray(scene.camera_position) * 1e3
+    view = (cam - points) / np.linalg.norm(cam - points, axis=-1, keepdims=True)
+    geo = diffraction_at(points, view, np.zeros(3), scene.disc_normal, np.asarray(scene.light_position) * 1e3)
+    return geo.lambda1_nm(scene.preset.disc.pitch_um)
+
+
+@pytest.mark.parametrize("lamp,camera,azimuth", [
+    ((700.0, 83.5), (230.0, 38.0), 165.0),  # Kim 2023's case 1: a grazing lamp, 15° out of the camera's plane
+    ((300.0, 35.0), (200.0, 30.0), 160.0),  # the mirror glint on the data area
+    ((400.0, 20.0), (250.0, 45.0), 90.0),
+])
+def test_off_plane_the_first_order_lies_on_the_curve_v_0_and_shows_the_kernels_lambda(lamp, camera, azimuth):
+    from cd_spectra_addon.core.planning.setups import first_order_curve, incidence_line
+
+    setup, scene = _measured_scene(lamp, camera, azimuth)
+    with pytest.raises(CDSpectraError, match="one plane"):
+        incidence_line(scene)
+    radii = np.linspace(0.5, 60.0, 120)
+    curve = first_order_curve(scene, radii)
+    points = curve.points_mm.reshape(-1, 3)
+    assert np.allclose(np.linalg.norm(points, axis=1), np.tile(radii, 2), atol=1e-9)
+    assert np.max(np.abs(points[:, 2])) < 1e-12  # on the disc plane
+    assert np.max(np.abs(_v_by_hand(scene, points))) < 1e-9
+    # The arms leave the centre in opposite directions and bend: it is a curve, not a line.
+    assert abs((curve.azimuth_deg[1, 0] - curve.azimuth_deg[0, 0]) % 360.0 - 180.0) < 1.0
+    assert np.ptp(curve.azimuth_deg[0]) > 1.0
+    report = analyse(setup, report_nm=tuple(np.arange(400.0, 1001.0, 50.0)))
+    assert not report.coplanar
+    for lam, where in report.positions_mm.items():
+        for s in where:
+            arm = 0 if s > 0 else 1
+            point = first_order_curve(scene, [abs(s)]).points_mm[arm]
+            assert _kernel_lambda1(scene, point)[0] == pytest.approx(lam, abs=0.05), (lam, s)
+    # Per arm, the first order's range on the data area is the kernel's there.
+    for cov, arm in zip(report.sides, (0, 1)):
+        on_data = first_order_curve(scene, np.linspace(23.0, 58.5, 200)).points_mm[arm]
+        lam = _kernel_lambda1(scene, on_data)
+        assert cov.lambda_range_nm == pytest.approx((lam.min(), lam.max()), abs=0.5)
+        for m, lo, hi in cov.orders_nm:  # other orders show λ₁/m: only where that is visible
+            assert 400.0 <= lo <= hi <= 700.0 and lam.min() / m <= hi + 1e-9 and lam.max() / m >= lo - 1e-9
+
+
+def test_off_plane_glint_is_the_lamps_mirror_point():
+    """Zero order: where the disc mirrors the lamp into the lens — on the segment between their feet,
+    split in the ratio of their heights — and it lies on the curve (u = v = 0 there)."""
+    from cd_spectra_addon.core.planning.setups import first_order_curve
+
+    setup, scene = _measured_scene((300.0, 35.0), (200.0, 30.0), 160.0)
+    report = analyse(setup)
+    lamp = np.asarray(setup.preset.light.position_mm)
+    cam = np.asarray(setup.preset.camera.nominal_position_mm)
+    mirror = (cam[:2] * lamp[2] + lamp[:2] * cam[2]) / (lamp[2] + cam[2])
+    (glint,) = report.glint_mm
+    assert abs(glint) == pytest.approx(np.hypot(*mirror), abs=2e-3)
+    on_curve = first_order_curve(scene, [abs(glint)]).points_mm[0 if glint > 0 else 1][0]
+    assert np.allclose(on_curve[:2], mirror, atol=2e-3)
+    assert any("mirror glint" in note for note in report.notes)
+
+
+def test_a_grazing_lamp_out_of_the_cameras_plane_reports_each_arm():
+    """Kim 2023's case 1 (lamp 700 mm at 83.5°, camera 230 mm at 38°, 165° apart): one arm shows
+    the blue–green first order, the other the near infrared, whose second order is visible there."""
+    setup, _ = _measured_scene((700.0, 83.5), (230.0, 38.0), 165.0)
+    report = analyse(setup)
+    plus, minus = report.sides
+    assert 400.0 < plus.lambda_range_nm[0] < 500.0 < plus.lambda_range_nm[1] < 700.0
+    assert minus.lambda_range_nm[0] > 700.0 and minus.orders_nm and minus.orders_nm[0][0] == 2
+    assert not report.covers_visible and report.covered_nm is not None
+    assert all(np.isfinite(list(report.resolution_nm.values())))
+    assert any("curve through the centre" in note for note in report.notes)

@@ -367,8 +367,11 @@ def setup_summary(report: SetUpReport) -> list[str]:
     else:
         lines.append("No first order on the unobstructed data area")
     for cov in report.sides:
-        lines.append(f"  side {'+' if cov.side > 0 else '−'}: {cov.lambda_range_nm[0]:.0f}–{cov.lambda_range_nm[1]:.0f} nm"
-                     + (f", {cov.blocked_fraction:.0%} blocked" if cov.blocked_fraction else ""))
+        where = "" if report.coplanar else f" (azimuth {cov.azimuth_deg[0]:.0f}° to {cov.azimuth_deg[1]:.0f}°)"
+        orders = "".join(f"; order {m} shows {a:.0f}–{b:.0f} nm there" for m, a, b in cov.orders_nm)
+        lines.append(f"  {'side' if report.coplanar else 'arm'} {'+' if cov.side > 0 else '−'}{where}: "
+                     f"{cov.lambda_range_nm[0]:.0f}–{cov.lambda_range_nm[1]:.0f} nm"
+                     + (f", {cov.blocked_fraction:.0%} blocked" if cov.blocked_fraction else "") + orders)
     if report.resolution_nm:
         worst = max(report.resolution_nm.values())
         lines.append(f"Spectral blur ≤ {worst:.1f} nm FWHM (source σ {report.sigma_source:.4f}, "

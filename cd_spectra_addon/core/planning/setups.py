@@ -1,16 +1,22 @@
 """Can a capture set-up be built and read? Where the first order lands, what is in the way,
 and how sharp the spectrum is — from the forward model's geometry, before anyone takes a photo.
 
-The set-ups a person builds put the lamp, the camera and the disc axis in one plane (lamp
-beside the lens, or lamp and tripod on a line through the disc). On the line where that plane
-meets the disc the tangential part v of ωi + ωo is zero, so the first-order streak lies on it,
-and the grating equation d(sin θm − sin θi) = mλ fixes where each wavelength is:
-with ê the line's direction, sin θi = −ωi·ê and sin θm = ωo·ê (angles from the normal, positive
-towards ê), so a point at signed position s shows λ = d|(ωi + ωo)·ê| (m = ±1).
+The first order shows where the tangential part v = (ωi + ωo)·t̂ is zero (Kim 2023's line
+condition), at λ = d·|u|/m for order m (u = (ωi + ωo)·r̂). Where the lamp, the camera and the
+disc axis are in one plane (lamp beside the lens, or lamp and tripod on a line through the disc)
+that is the straight line where the plane meets the disc, and the grating equation
+d(sin θm − sin θi) = mλ fixes where each wavelength is: with ê the line's direction,
+sin θi = −ωi·ê and sin θm = ωo·ê (angles from the normal, positive towards ê), so a point at
+signed position s shows λ = d|(ωi + ωo)·ê| (m = ±1). Where they are not (a lamp off the
+camera's plane, measured where it happened to be), v = 0 is a curve through the centre that
+bends: its two arms are followed outwards radius by radius, the azimuth where v changes sign
+found by bisection on the kernel's v (:func:`first_order_curve`), and every result below is read
+along them — a signed position is then the radius along an arm (+ or −).
 
 The spectrum is blurred by the angular size of the source (σi) and of the lens's entrance
-pupil seen from the disc (σo): δλ = d·√((cos θi σi)² + (cos θo σo)²) (Gaussian std). A uniform
-disc of diameter a at distance D has an angular std of a / (4D) along any direction.
+pupil seen from the disc (σo): δλ = d·√((cos θi σi)² + (cos θo σo)²) (Gaussian std; θ in the
+radial plane of diffraction). A uniform disc of diameter a at distance D has an angular std of
+a / (4D) along any direction.
 
 The preset file's optional ``"setup"`` section says what the forward model cannot know: the
 size of the camera body and where its lens is, the lens aperture, the source size, the
@@ -28,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset
+from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset, preset_path
 from ..spectra.grid import VISIBLE_NM
 from ..errors import CDSpectraError
 from ..scene.kernel import diffraction_at
@@ -45,7 +51,9 @@ __all__ = [
     "SetUpReport",
     "camera_body_box",
     "angular_sigma",
+    "FirstOrderCurve",
     "incidence_line",
+    "first_order_curve",
     "first_order_positions",
     "analyse",
     "setup_from_dict",
@@ -59,6 +67,14 @@ SETUP_KINDS = (NEAR_AXIS, OBLIQUE)
 
 _SAMPLES_PER_MM = 20  # line sampling; wavelengths are interpolated to ≪ 0.1 mm
 _EPS_MM = 1e-6
+# The curve v = 0 is followed at radii 0.25 mm apart, looking for v's sign changes in 1° cells
+# around each circle; at any other radius its azimuth is then bracketed from the neighbours'
+# (±0.5°, widened up to ±90° where v does not change sign there) and bisected to 1e-14 rad,
+# which leaves |v| ≲ 1e-14 (|∂v/∂ψ| ≤ 2).
+_TRACK_STEP_MM = 0.25
+_TRACK_CELLS = 360
+_BRACKETS_DEG = (0.5, 2.0, 8.0, 30.0, 90.0)
+_ROOT_TOL_RAD = 1e-14
 
 
 def _frame(facing: NDArray[np.float64], up: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -203,10 +219,211 @@ def incidence_line(scene: Scene) -> NDArray[np.float64]:
     return e
 
 
+@dataclass(frozen=True)
+class FirstOrderCurve:
+    """The two arms of the curve v = 0 on the disc, from the centre outwards: arm + (index 0)
+    leaves the centre on the lamp's side of the disc (the camera's where the camera's foot is
+    farther out), arm − (index 1) on the other side."""
+
+    radii_mm: NDArray[np.float64]  # (n,)
+    azimuth_deg: NDArray[np.float64]  # (2, n) in [0, 360), disc frame, counter-clockwise seen from above
+    points_mm: NDArray[np.float64]  # (2, n, 3) world mm, on the disc plane
+    start: NDArray[np.float64]  # (3,) world direction in which arm + leaves the centre
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _plus_reference(scene: Scene) -> NDArray[np.float64]:
+    """The in-plane direction that says which half is +: the lamp's foot, or the camera's where
+    it is farther out (as :func:`incidence_line` orients ê)."""
+    n = scene.disc_normal
+    lamp = scene.light_position - scene.disc_center
+    cam = scene.camera_position - scene.disc_center
+    lamp_t, cam_t = lamp - (lamp @ n) * n, cam - (cam @ n) * n
+    return lamp_t if np.linalg.norm(lamp_t) >= np.linalg.norm(cam_t) else cam_t
+
+
+class _Track:
+    """The arms of v = 0 at radii 0.25 mm apart; :meth:`azimuths` finds them at any radius."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.centre = scene.disc_center * 1e3
+        self.frame = scene.disc_rotation
+        self.normal = scene.disc_normal
+        self.camera = scene.camera_position * 1e3
+        self.lamp = scene.light_position * 1e3
+        rim = scene.preset.disc.rim_radius_mm
+        self.radii = _TRACK_STEP_MM * np.arange(1, int(math.ceil(rim / _TRACK_STEP_MM)) + 2)
+        self.start = self._start(scene)
+        self.psi = self._follow()
+
+    def points(self, r: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """World points (…, 3) at radius ``r`` and azimuth ``psi`` (rad) in the disc's frame."""
+        r, psi = np.broadcast_arrays(np.asarray(r, dtype=np.float64), np.asarray(psi, dtype=np.float64))
+        return (self.centre + (r * np.cos(psi))[..., None] * self.frame[:, 0]
+                + (r * np.sin(psi))[..., None] * self.frame[:, 1])
+
+    def radial(self, psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        psi = np.asarray(psi, dtype=np.float64)
+        return np.cos(psi)[..., None] * self.frame[:, 0] + np.sin(psi)[..., None] * self.frame[:, 1]
+
+    def v(self, r: NDArray[np.float64], psi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The kernel's v at (r, ψ)."""
+        p = self.points(r, psi)
+        flat = p.reshape(-1, 3)
+        geo = diffraction_at(flat, _unit(self.camera - flat), self.centre, self.normal, self.lamp)
+        return geo.v.reshape(p.shape[:-1])
+
+    def _start(self, scene: Scene) -> NDArray[np.float64]:
+        """Arm +'s direction at the centre: along the in-plane part of ωi + ωo there (v = 0 needs
+        r̂ ∥ ±(ωi + ωo) as r → 0), signed towards the + half."""
+        geo = diffraction_at(self.centre[None, :], _unit(self.camera - self.centre)[None, :], self.centre,
+                             self.normal, self.lamp)
+        h = geo.to_lamp[0] + geo.view[0]
+        h_t = h - (h @ self.normal) * self.normal
+        if np.linalg.norm(h_t) < 1e-12:  # the mirror glint at the centre: lamp and camera in one plane
+            h_t = _plus_reference(scene)
+        h_t = h_t / np.linalg.norm(h_t)
+        return -h_t if h_t @ _plus_reference(scene) < 0 else h_t
+
+    def _follow(self) -> NDArray[np.float64]:
+        """ψ (rad, unwrapped along each arm) at :attr:`radii`: per radius, the cells of a 1° grid
+        where v changes sign; each arm takes the one nearest its azimuth at the previous radius;
+        then bisection in that cell."""
+        step = 2.0 * math.pi / _TRACK_CELLS
+        edges = step * np.arange(_TRACK_CELLS)
+        v = self.v(self.radii[:, None], edges[None, :])
+        change = np.sign(v) * np.sign(np.roll(v, -1, axis=1)) <= 0  # cell j: [edge j, edge j + 1]
+        local = self.start @ self.frame
+        previous = [math.atan2(local[1], local[0]), math.atan2(local[1], local[0]) + math.pi]
+        lo = np.empty((2, self.radii.size))
+        for k in range(self.radii.size):
+            cells = np.flatnonzero(change[k])
+            if cells.size == 0:
+                raise CDSpectraError(f"the first-order curve could not be followed at r = {self.radii[k]:.2f} mm")
+            middles = edges[cells] + step / 2.0
+            for arm in (0, 1):
+                turn = np.angle(np.exp(1j * (middles - previous[arm])))
+                best = int(np.argmin(np.abs(turn)))
+                lo[arm, k] = previous[arm] + turn[best] - step / 2.0  # unwrapped
+                previous[arm] = lo[arm, k] + step / 2.0
+        radii = np.broadcast_to(self.radii, lo.shape)
+        return self._bisect(radii, lo, lo + step)
+
+    def _bisect(self, r: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The azimuth in [lo, hi] where v changes sign (v(lo), v(hi) of opposite sign or zero)."""
+        v_lo = self.v(r, lo)
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            v_mid = self.v(r, mid)
+            right = np.sign(v_mid) == np.sign(v_lo)  # the root lies in [mid, hi]
+            lo, v_lo, hi = np.where(right, mid, lo), np.where(right, v_mid, v_lo), np.where(right, hi, mid)
+            if np.all(hi - lo < _ROOT_TOL_RAD):
+                break
+        v_hi = self.v(r, hi)
+        return np.where(np.abs(v_lo) <= np.abs(v_hi), lo, hi)
+
+    def azimuths(self, arm: int, radii: NDArray[np.float64]) -> NDArray[np.float64]:
+        """ψ (rad) of arm 0 (+) or 1 (−) at any radii: bracketed around the followed arm's
+        azimuth, widened where v does not change sign, then bisected."""
+        radii = np.asarray(radii, dtype=np.float64)
+        guess = np.interp(radii, self.radii, self.psi[arm])
+        lo, hi = guess.copy(), guess.copy()
+        need = np.ones(radii.shape, dtype=bool)
+        for width in np.radians(_BRACKETS_DEG):
+            if not need.any():
+                break
+            a, b = guess[need] - width, guess[need] + width
+            ok = np.sign(self.v(radii[need], a)) * np.sign(self.v(radii[need], b)) <= 0
+            idx = np.flatnonzero(need)[ok]
+            lo[idx], hi[idx] = a[ok], b[ok]
+            need[idx] = False
+        if need.any():
+            raise CDSpectraError("the first-order curve could not be followed at r = "
+                                 f"{float(radii[need][0]):.2f} mm")
+        return self._bisect(radii, lo, hi)
+
+
+def first_order_curve(scene: Scene, radii_mm: Any) -> FirstOrderCurve:
+    """Where v = 0 on the disc at the given radii (> 0, mm): the two arms of the first order's
+    curve, found with the kernel's v (:func:`~..scene.kernel.diffraction_at`) by root finding
+    around each circle. For lamp and camera in one plane with the axis it is the incidence line."""
+    radii = np.atleast_1d(np.asarray(radii_mm, dtype=np.float64))
+    if radii.ndim != 1 or not np.all(np.isfinite(radii)) or np.any(radii <= 0):
+        raise ValueError("radii_mm must be positive, finite radii")
+    track = _Track(scene)
+    psi = np.stack([track.azimuths(0, radii), track.azimuths(1, radii)])
+    return FirstOrderCurve(radii_mm=radii, azimuth_deg=np.degrees(psi) % 360.0, points_mm=track.points(radii[None, :], psi),
+                           start=track.start)
+
+
+class _Streak:
+    """Where the first order lies, as positions s along it (mm): the straight incidence line
+    (s along ê) where lamp, camera and axis share a plane, else the two arms of the curve v = 0
+    (s = +r on arm +, −r on arm −)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        try:
+            self.direction = incidence_line(scene)
+            self.track: _Track | None = None
+        except CDSpectraError:
+            self.track = _Track(scene)
+            self.direction = self.track.start
+
+    @property
+    def coplanar(self) -> bool:
+        return self.track is None
+
+    def locate(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World points (n, 3) at positions ``s`` and the in-plane direction of the plane of
+        diffraction there (ê on the line, r̂ on the curve)."""
+        s = np.asarray(s, dtype=np.float64)
+        if self.track is None:
+            return _line_points(self.scene, s, self.direction), np.broadcast_to(self.direction, (s.size, 3))
+        psi = np.empty(s.shape)
+        for arm, side in ((0, s > 0), (1, s < 0)):
+            if side.any():
+                psi[side] = self.track.azimuths(arm, np.abs(s[side]))
+        return self.track.points(np.abs(s), psi), self.track.radial(psi)
+
+    def kernel(self, s: NDArray[np.float64]) -> tuple[NDArray[np.float64], Any]:
+        """Points at ``s`` and the kernel's diffraction coordinate there."""
+        points, _ = self.locate(s)
+        scene = self.scene
+        geo = diffraction_at(points, _unit(scene.camera_position * 1e3 - points), scene.disc_center * 1e3,
+                             scene.disc_normal, scene.light_position * 1e3)
+        return points, geo
+
+    def lambda1(self, s: NDArray[np.float64] | None = None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Positions (default: hole to rim on both halves), their points and λ₁ there."""
+        disc = self.scene.preset.disc
+        if s is None:
+            n = int((disc.rim_radius_mm - disc.hole_radius_mm) * _SAMPLES_PER_MM) + 1
+            half = np.linspace(disc.hole_radius_mm, disc.rim_radius_mm, n)
+            s = np.concatenate([-half[::-1], half])
+        points, geo = self.kernel(s)
+        return s, points, geo.lambda1_nm(disc.pitch_um)
+
+    def azimuth_deg(self, s: float) -> float:
+        """Azimuth (degrees, disc frame, counter-clockwise seen from above) of the point at ``s``."""
+        points, _ = self.locate(np.array([s]))
+        local = (points[0] - self.scene.disc_center * 1e3) @ self.scene.disc_rotation
+        return math.degrees(math.atan2(local[1], local[0])) % 360.0 + 0.0
+
+
 def first_order_positions(scene: Scene, wavelengths_nm: Any) -> list[list[float]]:
-    """For each wavelength, the signed positions s (mm along ê from the centre) on the disc
-    where the first order shows it (λ = d·|(ωi + ωo)·ê|, v = 0), from the hole to the rim."""
-    s, lam = _line_lambda(scene)
+    """For each wavelength, the signed positions s (mm along ê from the centre, or ±radius along
+    the curve's arms) on the disc where the first order shows it (λ = d·|u|, v = 0), from the
+    hole to the rim."""
+    s, _, lam = _Streak(scene).lambda1()
+    return _crossings(s, lam, wavelengths_nm)
+
+
+def _crossings(s: NDArray[np.float64], lam: NDArray[np.float64], wavelengths_nm: Any) -> list[list[float]]:
     out: list[list[float]] = []
     for target in np.atleast_1d(np.asarray(wavelengths_nm, dtype=np.float64)):
         found = []
@@ -222,35 +439,19 @@ def first_order_positions(scene: Scene, wavelengths_nm: Any) -> list[list[float]
     return out
 
 
-def _line_lambda(scene: Scene, s: NDArray[np.float64] | None = None
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Signed positions along the line (default: hole to rim on both halves) and λ₁ there."""
-    disc = scene.preset.disc
-    if s is None:
-        n = int((disc.rim_radius_mm - disc.hole_radius_mm) * _SAMPLES_PER_MM) + 1
-        half = np.linspace(disc.hole_radius_mm, disc.rim_radius_mm, n)
-        s = np.concatenate([-half[::-1], half])
-    points = _line_points(scene, s)
-    geo = diffraction_at(points, _unit(scene.camera_position * 1e3 - points), scene.disc_center * 1e3,
-                         scene.disc_normal, scene.light_position * 1e3)
-    return s, geo.lambda1_nm(disc.pitch_um)
-
-
-def _line_points(scene: Scene, s: NDArray[np.float64]) -> NDArray[np.float64]:
-    return scene.disc_center * 1e3 + np.asarray(s, dtype=np.float64)[:, None] * incidence_line(scene)[None, :]
-
-
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+def _line_points(scene: Scene, s: NDArray[np.float64], e: NDArray[np.float64]) -> NDArray[np.float64]:
+    return scene.disc_center * 1e3 + np.asarray(s, dtype=np.float64)[:, None] * e[None, :]
 
 
 @dataclass(frozen=True)
 class SideCoverage:
-    """One half of the line (side +1 along ê, −1 opposite) over the data area."""
+    """One half of the streak (side +1 along ê or arm +, −1 the other) over the data area."""
 
     side: int
     lambda_range_nm: tuple[float, float]  # first-order λ shown between the data area's radii
     blocked_fraction: float  # of the data-area points on this side whose light or view is blocked
+    azimuth_deg: tuple[float, float] = (0.0, 0.0)  # where it crosses the data area's inner / outer radius
+    orders_nm: tuple[tuple[int, float, float], ...] = ()  # (|m| ≥ 2, λ from, to): visible light of order m there
 
 
 @dataclass(frozen=True)
@@ -258,12 +459,12 @@ class SetUpReport:
     """What a set-up delivers, for the README, the planner and the panel."""
 
     name: str
-    line_direction: tuple[float, float, float]
-    positions_mm: dict[float, list[float]]  # λ → signed positions on the line (whole disc)
+    line_direction: tuple[float, float, float]  # ê, or the direction arm + leaves the centre in
+    positions_mm: dict[float, list[float]]  # λ → signed positions on the line / arms (whole disc)
     sides: tuple[SideCoverage, SideCoverage]
     covered_nm: tuple[float, float] | None  # the part of 400–700 on the unblocked data area
     covers_visible: bool
-    glint_mm: list[float]  # zero-order (mirror) points on the disc
+    glint_mm: list[float]  # zero-order (mirror) points on the streak
     sigma_source: float
     sigma_aperture: float
     resolution_nm: dict[float, float]  # FWHM of the spectral blur at λ
@@ -272,14 +473,18 @@ class SetUpReport:
     disc_in_frame: bool
     notes: tuple[str, ...] = field(default=())
     read_side: int = 0  # +1 / −1: this half of the line alone shows 400–700 nm unblocked; 0: split
+    coplanar: bool = True  # lamp, camera and disc axis in one plane: the streak is straight
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "name": self.name,
             "line_direction": list(self.line_direction),
+            "coplanar": self.coplanar,
             "positions_mm": {f"{k:g}": v for k, v in self.positions_mm.items()},
             "sides": [{"side": c.side, "lambda_range_nm": list(c.lambda_range_nm),
-                       "blocked_fraction": c.blocked_fraction} for c in self.sides],
+                       "blocked_fraction": c.blocked_fraction, "azimuth_deg": list(c.azimuth_deg),
+                       "orders_nm": [{"order": m, "from_nm": a, "to_nm": b} for m, a, b in c.orders_nm]}
+                      for c in self.sides],
             "covered_nm": list(self.covered_nm) if self.covered_nm else None,
             "covers_400_700": self.covers_visible,
             "glint_mm": self.glint_mm,
@@ -303,14 +508,26 @@ def _on_data(s: NDArray[np.float64], disc: Any, side: int = 0) -> NDArray[np.boo
     return mask & (np.sign(s) == side) if side else mask
 
 
+def _visible_orders(lam: NDArray[np.float64], max_order: int) -> tuple[tuple[int, float, float], ...]:
+    """Orders |m| ≥ 2 that show part of 400–700 nm where the first order shows ``lam`` (λm = λ₁/m;
+    along a streak λ₁ is continuous, so each order shows one stretch)."""
+    lo_nm, hi_nm = VISIBLE_NM
+    out = []
+    for m in range(2, int(max_order) + 1):
+        a, b = float(lam.min()) / m, float(lam.max()) / m
+        if a <= hi_nm and b >= lo_nm:
+            out.append((m, max(a, lo_nm), min(b, hi_nm)))
+    return tuple(out)
+
+
 def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpReport:
     """Coverage, occlusion, glint and resolution of a set-up (nominal pose)."""
     preset = setup.preset
     scene = Scene(preset)
     disc = preset.disc
-    e = incidence_line(scene)
-    s, lam = _line_lambda(scene)
-    points = _line_points(scene, s)
+    streak = _Streak(scene)
+    e = streak.direction
+    s, points, lam = streak.lambda1()
     lamp = scene.light_position * 1e3
     cam = scene.camera_position * 1e3
     boxes = (camera_body_box(setup), *setup.bodies)
@@ -360,7 +577,10 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
         data = _on_data(s, disc, side)
         lam_side = lam[data]
         sides.append(SideCoverage(side, (float(lam_side.min()), float(lam_side.max())),
-                                  float(np.mean(blocked[data]))))
+                                  float(np.mean(blocked[data])),
+                                  (streak.azimuth_deg(side * disc.grating_r_min_mm),
+                                   streak.azimuth_deg(side * disc.grating_r_max_mm)),
+                                  _visible_orders(lam_side, disc.max_order)))
         usable = lam[data & ~blocked]
         if usable.size:
             visible_parts.append(usable)
@@ -370,8 +590,8 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
                       and c.blocked_fraction == 0.0), 0)
 
     report = tuple(float(x) for x in report_nm)
-    positions = dict(zip(report, first_order_positions(scene, report)))
-    glint = _glint(scene, e)
+    positions = dict(zip(report, _crossings(s, lam, report)))
+    glint = _glint(streak)
     sig_src = angular_sigma(setup.source_size_mm, float(np.linalg.norm(lamp - scene.disc_center * 1e3)))
     sig_ap = angular_sigma(setup.aperture_mm, float(np.linalg.norm(cam - scene.disc_center * 1e3)))
     resolution, per_px = {}, {}
@@ -381,19 +601,25 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
         if not on:
             continue
         x = on[0]
-        p = _line_points(scene, np.array([x]))[0]
+        at, radial = streak.locate(np.array([x]))
+        p, e_here = at[0], radial[0]
         wi, wo = _unit(lamp - p), _unit(cam - p)
         ci, co = float(wi @ n), float(wo @ n)
         # cos θ in the plane of diffraction (the radial plane): √(1 − (ω·ê)²) for ω in that plane
-        ci_r, co_r = math.sqrt(max(1e-12, 1 - (wi @ e) ** 2)), math.sqrt(max(1e-12, 1 - (wo @ e) ** 2))
+        ci_r, co_r = math.sqrt(max(1e-12, 1 - (wi @ e_here) ** 2)), math.sqrt(max(1e-12, 1 - (wo @ e_here) ** 2))
         std = disc.pitch_um * 1e3 * math.hypot(ci_r * sig_src, co_r * sig_ap)
         resolution[lam_nm] = float(2.3548 * std) if ci > 0 and co > 0 else float("inf")
-        per_px[lam_nm] = _nm_per_px(scene, x)
+        per_px[lam_nm] = _nm_per_px(streak, x)
     rim = _rim_points(scene)
     rc = scene.project(rim * 1e-3)
     width, height = preset.camera.image_size_px
     in_frame = bool(np.all((rc >= 0) & (rc <= np.array([height - 1, width - 1]))))
     notes = []
+    if not streak.coplanar:
+        notes.append("lamp and camera are not in one vertical plane with the disc's axis: the streak is a curve "
+                     f"through the centre; arm + crosses the data area from azimuth {sides[0].azimuth_deg[0]:.0f}° to "
+                     f"{sides[0].azimuth_deg[1]:.0f}°, arm − from {sides[1].azimuth_deg[0]:.0f}° to {sides[1].azimuth_deg[1]:.0f}° "
+                     "(seen from above the disc, counter-clockwise)")
     for g in glint:
         if disc.grating_r_min_mm <= abs(g) <= disc.grating_r_max_mm:
             notes.append(f"the mirror glint (zero order) falls on the data area at r = {abs(g):.0f} mm: "
@@ -405,6 +631,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
         sides=(sides[0], sides[1]), covered_nm=covered, covers_visible=covers, glint_mm=glint,
         sigma_source=sig_src, sigma_aperture=sig_ap, resolution_nm=resolution, nm_per_px=per_px,
         occlusions=tuple(findings), disc_in_frame=in_frame, notes=tuple(notes), read_side=read_side,
+        coplanar=streak.coplanar,
     )
 
 
@@ -437,15 +664,13 @@ def _coverage(parts: list[NDArray[np.float64]], lam: NDArray[np.float64], s: NDA
     return (lo, hi), bool(np.all(seen))
 
 
-def _glint(scene: Scene, e: NDArray[np.float64]) -> list[float]:
-    """Signed positions on the line where ωi + ωo is along the normal (u = 0): the mirror glint."""
-    disc = scene.preset.disc
+def _glint(streak: _Streak) -> list[float]:
+    """Signed positions on the streak where ωi + ωo is along the normal (u = 0): the mirror glint."""
+    disc = streak.scene.preset.disc
     s = np.linspace(-disc.rim_radius_mm, disc.rim_radius_mm, int(2 * disc.rim_radius_mm * _SAMPLES_PER_MM) + 1)
     s = s[s != 0.0]  # the radial direction, hence u's sign, is undefined at the centre itself
-    points = _line_points(scene, s)
-    geo = diffraction_at(points, _unit(scene.camera_position * 1e3 - points), scene.disc_center * 1e3,
-                         scene.disc_normal, scene.light_position * 1e3)
-    u = geo.u * np.sign(s)  # (ωi + ωo)·ê: r̂ = ±ê on the line
+    _, geo = streak.kernel(s)
+    u = geo.u * np.sign(s)  # (ωi + ωo)·ê: r̂ = ±ê on the line (the arm's outward r̂ on the curve)
     k = np.flatnonzero(np.sign(u[:-1]) * np.sign(u[1:]) <= 0)
     out = []
     for i in k:
@@ -457,13 +682,12 @@ def _glint(scene: Scene, e: NDArray[np.float64]) -> list[float]:
     return out
 
 
-def _nm_per_px(scene: Scene, s_mm: float) -> float:
+def _nm_per_px(streak: _Streak, s_mm: float) -> float:
     """How many nm one image pixel spans along the streak at signed position ``s_mm``."""
     h = 0.05
-    pts = _line_points(scene, np.array([s_mm - h, s_mm + h]))
-    rc = scene.project(pts * 1e-3)
+    _, pts, lam = streak.lambda1(np.array([s_mm - h, s_mm + h]))
+    rc = streak.scene.project(pts * 1e-3)
     px = float(np.linalg.norm(rc[1] - rc[0]))
-    _, lam = _line_lambda(scene, np.array([s_mm - h, s_mm + h]))
     return float(abs(lam[1] - lam[0]) / max(px, 1e-12))
 
 
@@ -551,9 +775,7 @@ def setup_names() -> list[str]:
 def load_setup(name_or_path: str | Path) -> SetUp:
     """The set-up of a preset by name or path; CDSpectraError if it has none or it is invalid."""
     preset = load_preset(name_or_path)
-    path = Path(name_or_path)
-    if not path.suffix:
-        path = PRESET_DIR / f"{name_or_path}.json"
+    path = preset_path(name_or_path)
     data = json.loads(path.read_text(encoding="utf-8"))
     if "setup" not in data:
         raise CDSpectraError(f"preset {preset.name!r} describes no buildable set-up (no 'setup' section); "
