@@ -117,13 +117,14 @@ def test_mitsuba_pairs_round_trip_any_spd(tmp_path: Path, spd: list[float]) -> N
 # --- lists ----------------------------------------------------------------------------------------
 
 
-def test_presets_and_cameras_list_what_estimate_accepts() -> None:
+def test_presets_and_cameras_list_what_estimate_accepts(tmp_path: Path) -> None:
     from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, camera_names
     from cd_spectra_addon.core.scene.capture import preset_names
 
-    proc = run_cli("presets", "--json")
+    env = {"CD_SPECTRA_PRESET_DIR": str(tmp_path / "no-presets-of-mine")}  # the shipped ones only
+    proc = run_cli("presets", "--json", env_extra=env)
     assert [row["name"] for row in json.loads(proc.stdout)] == preset_names()
-    proc = run_cli("presets")
+    proc = run_cli("presets", env_extra=env)
     assert [line.split()[0] for line in proc.stdout.splitlines()] == preset_names()
     proc = run_cli("cameras")
     assert [line.split()[0] for line in proc.stdout.splitlines()] == camera_names()

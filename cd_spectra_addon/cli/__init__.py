@@ -18,8 +18,8 @@ from types import ModuleType
 from .common import EXIT_BAD_INPUT, EXIT_INTERNAL, Parser, UsageError
 
 # The commands, in the order `--help` lists them: a module of this package each.
-COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "plan", "presets", "cameras",
-                                  "calibrations")
+COMMAND_NAMES: tuple[str, ...] = ("estimate", "export", "compare", "calibrate", "plan", "setup", "presets",
+                                  "cameras", "calibrations")
 COMMANDS: tuple[ModuleType, ...] = tuple(importlib.import_module(f"{__name__}.{name}") for name in COMMAND_NAMES)
 from ..core.scene.capture import DEFAULT_PRESET  # noqa: E402  (re-exported for callers of the CLI)
 

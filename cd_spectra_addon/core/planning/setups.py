@@ -114,7 +114,7 @@ class Box:
         t1 = np.full(a.shape[:-1], 1.0)
         for k in range(3):
             dk, ak = d[..., k], a[..., k]
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # near-parallel: dropped below
                 lo = (-half[k] - ak) / dk
                 hi = (half[k] - ak) / dk
             parallel = np.abs(dk) < 1e-12
