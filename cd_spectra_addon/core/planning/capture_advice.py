@@ -6,9 +6,13 @@ a lens 210 mm above the disc, 400–700 nm falls on the clear hub (r < 23 mm) an
 can read it. How far the lamp may be is found here with the same per-pixel diffraction
 coordinate the readout uses, for the preset's camera and lamp height.
 
-For an oblique set-up (camera and lamp at angles from the disc's axis) what matters is those
-angles: the fitted capture's are compared with the preset's, and the part of 400–700 nm that
-misses the tracks is named.
+For an oblique set-up (camera and lamp at angles from the disc's axis, anywhere around it) what
+matters is those angles and how far around the disc the lamp stands from the camera (its azimuth,
+seen from above, counter-clockwise): the fitted capture's are compared with the preset's, the part
+of 400–700 nm that lands on the tracks is read along the first order's streak
+(:func:`~.setups.first_order_visible`), and the advice names the moves that bring the capture back
+to the preset — or, where the preset itself leaves part of 400–700 nm off the tracks, the one move
+of lamp or camera (5° of angle, 15° around the disc) that shows the most of it.
 """
 
 from __future__ import annotations
@@ -21,9 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..photo.resample import channel_sum
-from ..scene.capture import Light, Pose, Preset, Scene
+from ..scene.capture import Camera, Light, Pose, Preset, Scene
 from ..scene.diffraction import lobe_pixels
+from ..scene.kernel import rotation_about
 from ..scene.relative_pose import near_axis
+from .setups import first_order_visible
 from ..spectra.grid import FEATURE_STEP_NM, MIN_VISIBILITY, VISIBLE_NM
 
 REACH_SIDE = 256  # image side the reach is computed at (a pixel ≈ 0.5 mm on the disc)
@@ -34,7 +40,7 @@ REACH_COVERAGE = 0.95  # share of 400–700 nm (5 nm bins) that must land on the
 _VISIBLE_BINS = round((VISIBLE_NM[1] - VISIBLE_NM[0]) / FEATURE_STEP_NM)
 
 __all__ = ["coverage_400_700", "lamp_reach_mm", "lamp_offset_mm", "glint_px", "lamp_advice", "missing_nm",
-           "capture_angles", "oblique_advice", "coverage_advice", "advice_for_photo"]
+           "capture_angles", "lamp_azimuth_deg", "oblique_advice", "coverage_advice", "advice_for_photo"]
 
 
 def _covered_bins(scene: Scene) -> NDArray[np.int64]:
@@ -169,23 +175,155 @@ def capture_angles(scene: Scene) -> tuple[float, float, float]:
     return polar(cam), polar(lamp), between
 
 
+def lamp_azimuth_deg(scene: Scene) -> float:
+    """How far counter-clockwise the lamp stands from the camera around the disc's axis, seen from
+    above the disc (its own frame), in [0, 360); 0 where either is on the axis."""
+    n = scene.disc_normal
+    cam = scene.camera_position - scene.disc_center
+    lamp = scene.light_position - scene.disc_center
+    cam_t, lamp_t = cam - (cam @ n) * n, lamp - (lamp @ n) * n
+    if np.linalg.norm(cam_t) < 1e-9 or np.linalg.norm(lamp_t) < 1e-9:
+        return 0.0
+    return math.degrees(math.atan2(float(np.cross(cam_t, lamp_t) @ n), float(cam_t @ lamp_t))) % 360.0 + 0.0
+
+
+_MOVE_DEG = 2.0  # differences below this are within what a fitted pose and a person's protractor agree on
+_PROBE_DEG = 5.0  # the probe's step for an angle from the axis
+_PROBE_TURN_DEG = 15.0  # and around the disc
+_MAX_ANGLE_DEG = 89.5
+
+
+def _deg(value: float) -> str:
+    return f"{round(value, 1):g}°"
+
+
+def _where(cam: float, lamp: float, azimuth: float) -> str:
+    """Camera and lamp angles from the axis and the lamp's azimuth from the camera, in words."""
+    angles = f"camera {_deg(cam)} and lamp {_deg(lamp)} from the disc's axis"
+    if lamp < 0.5 or cam < 0.5:
+        return f"{angles} ({'the lamp above the disc centre' if lamp < 0.5 else 'the camera straight above it'})"
+    turn = round(azimuth, 1) % 360.0
+    side = ("on the camera's side, in its vertical plane" if turn == 0.0 else
+            "opposite the camera, in its vertical plane" if turn == 180.0 else
+            f"{_deg(turn)} counter-clockwise from the camera, seen from above the disc")
+    return f"{angles}, the lamp {side}"
+
+
+def _angles_of(scene: Scene) -> tuple[float, float, float]:
+    cam, lamp, _ = capture_angles(scene)
+    return cam, lamp, lamp_azimuth_deg(scene)
+
+
+def _landing(parts: list[tuple[float, float]]) -> str:
+    if not parts:
+        return "none of 400–700 nm lands on the disc's tracks"
+    if parts == [VISIBLE_NM] or parts == [(float(VISIBLE_NM[0]), float(VISIBLE_NM[1]))]:
+        return "all of 400–700 nm lands on the disc's tracks"
+    return f"only {', '.join(f'{a:.0f}–{b:.0f}' for a, b in parts)} nm of 400–700 nm lands on the disc's tracks"
+
+
+def _moves(now: tuple[float, float, float], want: tuple[float, float, float]) -> list[str]:
+    """The moves that take the capture ``now`` (camera, lamp angle, lamp azimuth) to ``want``."""
+    out = []
+    for name, k in (("camera", 0), ("lamp", 1)):
+        change = want[k] - now[k]
+        if abs(change) > _MOVE_DEG:
+            out.append(f"{'lower' if change > 0 else 'raise'} the {name} {_deg(abs(change))} "
+                       f"(to {_deg(want[k])} from the disc's axis)")
+    turn = (want[2] - now[2] + 180.0) % 360.0 - 180.0
+    if min(now[0], now[1], want[0], want[1]) >= 0.5 and abs(turn) > _MOVE_DEG:
+        out.append(f"move the lamp {_deg(abs(turn))} {'counter-clockwise' if turn > 0 else 'clockwise'} around the "
+                   f"disc, seen from above (to {_deg(want[2] % 360.0)} counter-clockwise from the camera)")
+    return out
+
+
+def _moved(scene: Scene, camera_deg: float = 0.0, lamp_deg: float = 0.0, lamp_turn_deg: float = 0.0) -> Scene | None:
+    """``scene`` with the camera or the lamp moved by angles from the disc's axis (positive: lower)
+    or the lamp turned around the axis (positive: counter-clockwise seen from above); the camera
+    aimed at the disc centre. None where the move would leave 0–89.5° or needs a direction the
+    axis does not give."""
+    n, centre = scene.disc_normal, scene.disc_center * 1e3
+    cam, lamp = scene.camera_position * 1e3 - centre, scene.light_position * 1e3 - centre
+
+    def tilt(v: np.ndarray, degrees: float) -> np.ndarray | None:
+        if degrees == 0.0:
+            return v
+        foot = v - (v @ n) * n
+        angle = math.degrees(math.atan2(float(np.linalg.norm(foot)), float(v @ n))) + degrees
+        if np.linalg.norm(foot) < 1e-9 or not 0.0 <= angle <= _MAX_ANGLE_DEG:
+            return None
+        axis = np.cross(n, foot / np.linalg.norm(foot))
+        return rotation_about(axis, degrees) @ v
+
+    cam, lamp = tilt(cam, camera_deg), tilt(lamp, lamp_deg)
+    if cam is None or lamp is None:
+        return None
+    lamp = rotation_about(n, lamp_turn_deg) @ lamp
+    forward = -cam / np.linalg.norm(cam)
+    up = n - (n @ forward) * forward
+    if np.linalg.norm(up) < 1e-9:
+        up = scene.camera_rotation[:, 1]
+    old = scene.preset
+    camera = Camera(distance_mm=float(np.linalg.norm(cam)), focal_length_mm=old.camera.focal_length_mm,
+                    sensor_width_mm=old.camera.sensor_width_mm, image_size_px=old.camera.image_size_px,
+                    position_mm=tuple(float(x) for x in centre + cam), look_at_mm=tuple(float(x) for x in centre),
+                    up=tuple(float(x) for x in up))
+    tilt_deg = tuple(a + b for a, b in zip(old.disc_tilt_deg, scene.pose.tilt_deg))
+    return Scene(replace(old, camera=camera, light=replace(old.light, position_mm=tuple(float(x) for x in centre + lamp)),
+                         disc_tilt_deg=tilt_deg))
+
+
+def _best_move(scene: Scene, shown: float) -> str | None:
+    """The one move of lamp or camera that shows the most more of 400–700 nm on the tracks, if any
+    shows ≥ 10 nm more, with what it shows."""
+    probes = (("raise the lamp", {"lamp_deg": -_PROBE_DEG}), ("lower the lamp", {"lamp_deg": _PROBE_DEG}),
+              ("move the lamp {t}° counter-clockwise around the disc", {"lamp_turn_deg": _PROBE_TURN_DEG}),
+              ("move the lamp {t}° clockwise around the disc", {"lamp_turn_deg": -_PROBE_TURN_DEG}),
+              ("raise the camera", {"camera_deg": -_PROBE_DEG}), ("lower the camera", {"camera_deg": _PROBE_DEG}))
+    best: tuple[float, str] | None = None
+    for words, move in probes:
+        moved = _moved(scene, **move)
+        if moved is None:
+            continue
+        parts = first_order_visible(moved)
+        total = sum(b - a for a, b in parts)
+        if total >= shown + 10.0 and (best is None or total > best[0]):
+            text = words.format(t=f"{_PROBE_TURN_DEG:g}")
+            text += "" if "around" in text else f" {_PROBE_DEG:g}°"
+            best = (total, f"{text}: then {_landing(parts).replace('lands', 'would land')}")
+    return None if best is None else best[1]
+
+
+def _tilt_deg(scene: Scene) -> float:
+    """How far the disc is tilted from the preset's disc (degrees)."""
+    nominal = Scene(scene.preset).disc_normal
+    return math.degrees(math.acos(float(np.clip(scene.disc_normal @ nominal, -1.0, 1.0))))
+
+
 def oblique_advice(preset: Preset, scene: Scene | None) -> str:
-    """What to move for an oblique set-up: the fitted camera and lamp angles against the preset's
-    (where a fit is trusted), and which part of 400–700 nm misses the tracks."""
-    cam0, lamp0, between0 = capture_angles(Scene(preset))
-    side0 = "the camera's side" if between0 < 90 else "the other side from the camera"
-    want = (f"camera {cam0:.0f}° and lamp {lamp0:.0f}° from the disc's axis, the lamp on {side0}, in one "
-            f"vertical plane through the disc's centre (preset '{preset.name}')")
+    """What to move for an oblique set-up: the fitted camera and lamp angles and the lamp's azimuth
+    against the preset's (where a fit is trusted), which part of 400–700 nm lands on the tracks,
+    and the moves that would show more of it."""
+    want = _angles_of(Scene(preset))
+    placement = f"{_where(*want)} (preset '{preset.name}')"
     if scene is None:
-        return f"place them as the set-up says: {want}"
-    cam, lamp, between = capture_angles(scene)
-    gaps = missing_nm(scene)
-    lost = ", ".join(f"{a}–{b} nm" for a, b in gaps)
-    told = f"{lost} misses the disc's tracks" if gaps else "the first order is on the tracks"
-    side = "the camera's side" if between < 90 else "the other side"
-    return (f"{told}: the photo shows the camera {cam:.0f}° and the lamp {lamp:.0f}° from the disc's axis "
-            f"(on {side}, {abs(between if between < 90 else 180 - between):.0f}° out of the camera's plane) — "
-            f"move them to the set-up's {want}")
+        return f"place them as the set-up says: {placement}"
+    now = _angles_of(scene)
+    parts = first_order_visible(scene)
+    lands = _landing(parts)
+    moves = _moves(now, want)
+    tilt = _tilt_deg(scene)
+    if tilt > _MOVE_DEG:  # a tilted disc changes every angle measured from its axis
+        moves.append(f"or, if they stand where the set-up says, lay the disc flat (it is tilted {_deg(tilt)})")
+    if moves:
+        return f"{lands}: the photo shows the {_where(*now)} — {'; '.join(moves)}; the set-up: {placement}"
+    shown = sum(b - a for a, b in parts)
+    if shown >= VISIBLE_NM[1] - VISIBLE_NM[0]:
+        return (f"{lands} with the capture the photo shows ({_where(*now)}); the disc may be cut off by the frame, "
+                "or the streak is too faint or blurred to read there")
+    better = _best_move(scene, shown)
+    return (f"{lands} with the set-up as preset '{preset.name}' places it ({_where(*want)}) — "
+            + (better if better else "no single move of 5° helps: plan another set-up with 'plan'"))
 
 
 def coverage_advice(preset: Preset, scene: Scene) -> str:

@@ -55,6 +55,7 @@ __all__ = [
     "incidence_line",
     "first_order_curve",
     "first_order_positions",
+    "first_order_visible",
     "analyse",
     "setup_from_dict",
     "load_setup",
@@ -313,16 +314,26 @@ class _Track:
         return self._bisect(radii, lo, lo + step)
 
     def _bisect(self, r: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The azimuth in [lo, hi] where v changes sign (v(lo), v(hi) of opposite sign or zero)."""
-        v_lo = self.v(r, lo)
-        for _ in range(80):
-            mid = 0.5 * (lo + hi)
-            v_mid = self.v(r, mid)
-            right = np.sign(v_mid) == np.sign(v_lo)  # the root lies in [mid, hi]
-            lo, v_lo, hi = np.where(right, mid, lo), np.where(right, v_mid, v_lo), np.where(right, hi, mid)
-            if np.all(hi - lo < _ROOT_TOL_RAD):
+        """The azimuth in [lo, hi] where v changes sign (v(lo), v(hi) of opposite sign or zero):
+        regula falsi with the Illinois step (the bracket always holds the root; converges in a
+        few steps where bisection needs ~40), until |v| or the bracket is negligible."""
+        v_lo, v_hi = self.v(r, lo), self.v(r, hi)
+        side = np.zeros(lo.shape)  # which end was kept last: −1 lo, +1 hi (Illinois halves its v)
+        for _ in range(100):
+            width = hi - lo
+            denom = v_hi - v_lo
+            secant = np.where(denom != 0.0, lo - v_lo * width / np.where(denom != 0.0, denom, 1.0), 0.5 * (lo + hi))
+            x = np.where((secant > lo) & (secant < hi), secant, 0.5 * (lo + hi))
+            v_x = self.v(r, x)
+            right = np.sign(v_x) == np.sign(v_lo)  # the root lies in [x, hi]
+            v_hi = np.where(right & (side == 1), 0.5 * v_hi, v_hi)
+            v_lo = np.where(~right & (side == -1), 0.5 * v_lo, v_lo)
+            lo, v_lo = np.where(right, x, lo), np.where(right, v_x, v_lo)
+            hi, v_hi = np.where(right, hi, x), np.where(right, v_hi, v_x)
+            side = np.where(right, 1.0, -1.0)
+            if np.all((np.abs(v_x) < 1e-15) | (hi - lo < _ROOT_TOL_RAD)):
                 break
-        v_hi = self.v(r, hi)
+        v_lo, v_hi = self.v(r, lo), self.v(r, hi)
         return np.where(np.abs(v_lo) <= np.abs(v_hi), lo, hi)
 
     def azimuths(self, arm: int, radii: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -421,6 +432,35 @@ def first_order_positions(scene: Scene, wavelengths_nm: Any) -> list[list[float]
     hole to the rim."""
     s, _, lam = _Streak(scene).lambda1()
     return _crossings(s, lam, wavelengths_nm)
+
+
+def first_order_visible(scene: Scene, samples_per_mm: float = 10.0) -> list[tuple[float, float]]:
+    """The stretches of 400–700 nm (1 nm steps) the first order shows on the data area of either
+    arm, where the point is in the frame and both lamp and camera are above it — read along the
+    streak, so a streak thinner than a pixel counts (nothing near the light path is known here)."""
+    disc = scene.preset.disc
+    n = int((disc.grating_r_max_mm - disc.grating_r_min_mm) * samples_per_mm) + 1
+    half = np.linspace(disc.grating_r_min_mm, disc.grating_r_max_mm, n)
+    s, points, lam = _Streak(scene).lambda1(np.concatenate([-half[::-1], half]))
+    rc = scene.project(points * 1e-3)
+    width, height = scene.preset.camera.image_size_px
+    normal = scene.disc_normal
+    ok = ((rc[:, 0] >= 0) & (rc[:, 0] <= height - 1) & (rc[:, 1] >= 0) & (rc[:, 1] <= width - 1)
+          & ((scene.light_position * 1e3 - points) @ normal > 0) & ((scene.camera_position * 1e3 - points) @ normal > 0))
+    grid = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)
+    seen = np.zeros(grid.size, dtype=bool)
+    for a, b in zip(range(s.size - 1), range(1, s.size)):
+        if np.sign(s[a]) == np.sign(s[b]) and ok[a] and ok[b]:
+            lo, hi = sorted((lam[a], lam[b]))
+            seen |= (grid >= lo - 0.5) & (grid <= hi + 0.5)
+    out, start = [], None
+    for i, on in enumerate(np.append(seen, False)):
+        if on and start is None:
+            start = i
+        elif not on and start is not None:
+            out.append((float(grid[start]), float(grid[i - 1])))
+            start = None
+    return out
 
 
 def _crossings(s: NDArray[np.float64], lam: NDArray[np.float64], wavelengths_nm: Any) -> list[list[float]]:
