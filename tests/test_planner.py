@@ -137,3 +137,52 @@ def test_plan_is_reachable_from_python_dash_m():
     done = subprocess.run([sys.executable, "-m", "cd_spectra_addon", "plan", "--lamp-distance-mm", "40",
                            "--lamp-size-mm", "2", "--focal-mm", "26"], capture_output=True, text=True)
     assert done.returncode == 2 and done.stderr.startswith("error: a lamp 40 mm") and "Traceback" not in done.stderr
+
+
+@pytest.mark.slow  # ~4 s of CPU: the in-plane search, then up to 45 off-plane analyses
+def test_where_every_position_in_the_cameras_plane_is_blocked_the_lamp_is_turned_out_of_it():
+    """A 250 mm lamp housing 300 mm from the disc collides with the camera, or shades the streak,
+    wherever the planner puts the lamp in the camera's plane; turned around the disc's axis it
+    stands aside, and the curved first order still puts 400–700 nm on the data area."""
+    from cd_spectra_addon.core.planning.setups import first_order_curve, setup_from_dict
+    from cd_spectra_addon.core.scene.capture import Scene, preset_from_dict
+
+    plan = plan_capture(Equipment(300.0, 3.0, 24.0, lamp_housing_mm=250.0), max_analysed=20)
+    assert plan.lamp_turn_deg in (30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
+    report = plan.report
+    assert not report.coplanar and report.covers_visible and not report.occlusions and report.disc_in_frame
+    lamp = np.asarray(plan.setup.preset.light.position_mm)
+    cam = np.asarray(plan.setup.preset.camera.nominal_position_mm)
+    assert np.linalg.norm(lamp) == pytest.approx(300.0)
+    turn = math.degrees(math.atan2(lamp[1], lamp[0]) - math.atan2(cam[1], cam[0])) % 360.0
+    assert turn == pytest.approx(plan.lamp_azimuth_from_camera_deg)
+    text = " ".join(plan.instructions())
+    assert f"{plan.lamp_azimuth_from_camera_deg:g}° counter-clockwise from the camera" in text
+    # The same lamp turned back into the camera's plane is no plan (blocked, or 400–700 nm not all on the
+    # data area): the turn is what made it work.
+    back = np.array([np.hypot(lamp[0], lamp[1]) * (1.0 if plan.lamp_angle_deg > 0 else -1.0), 0.0, lamp[2]])
+    data = plan.setup.preset.to_dict()
+    data["light"]["position_mm"] = back.tolist()
+    housing = {"name": "lamp housing", "center_mm": (back + back / 300.0 * 125.0).tolist(),
+               "size_mm": [250.0] * 3, "facing": (-back / 300.0).tolist(), "passes_source": True}
+    in_plane = setup_from_dict(preset_from_dict(data), {
+        "kind": "oblique", "camera_body_mm": list(plan.setup.camera_body_mm),
+        "lens_offset_mm": list(plan.setup.lens_offset_mm), "aperture_mm": plan.setup.aperture_mm,
+        "source_size_mm": 3.0, "bodies": [housing]})
+    back_report = analyse(in_plane)
+    assert back_report.occlusions or not back_report.covers_visible
+    # 400 and 700 nm lie where the kernel's λ₁ on the curve says.
+    scene = Scene(plan.setup.preset)
+    for lam in (400.0, 700.0):
+        for s in report.positions_mm[lam]:
+            assert _kernel_lambda1(scene, first_order_curve(scene, [abs(s)]).points_mm[0 if s > 0 else 1]) \
+                == pytest.approx(lam, abs=0.05)
+
+
+def _kernel_lambda1(scene, points):
+    from cd_spectra_addon.core.scene.kernel import diffraction_at
+
+    cam = np.asarray(scene.camera_position) * 1e3
+    view = (cam - points) / np.linalg.norm(cam - points, axis=-1, keepdims=True)
+    geo = diffraction_at(points, view, np.zeros(3), scene.disc_normal, np.asarray(scene.light_position) * 1e3)
+    return float(geo.lambda1_nm(scene.preset.disc.pitch_um)[0])

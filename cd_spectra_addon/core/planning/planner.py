@@ -10,6 +10,13 @@ the camera on a tripod at another angle and distance, aimed at the disc centre).
 candidate that covers 400–700 nm is then checked for occlusion (camera body, lamp housing),
 the disc fitting the frame and the zero-order glint; the best one is the one that shows the
 whole range on one side of the disc, away from the glint, with the sharpest spectrum.
+
+Only where every such position is blocked (the lamp housing in the camera's way, or the two
+colliding) are positions with the lamp turned around the disc's axis out of the camera's plane
+tried (±30°, ±60°, ±90°, nearest first): off that plane the housing stands aside, and the first
+order follows a curve (:func:`~.setups.first_order_curve`). They are ranked by λ along that
+curve's tangent at the centre, then the full analysis reads the curve itself. So the plans for
+equipment that works in one plane — the shipped set-ups' — stay what they were.
 """
 
 from __future__ import annotations
@@ -48,6 +55,12 @@ CAMERA = _Kind((140.0, 100.0, 150.0), (0.0, -10.0), 8.0, 250.0, 2.0 / 3.0)
 # past that edge, and within 15 mm of the lens to stay near-axis.
 _NEAR_AXIS_OFFSETS_MM = (-12.0, -13.0, -14.0, -15.0)
 _MAX_FWHM_NM = 40.0
+# Where every position in the camera's plane is blocked, the best candidates are tried again with
+# the lamp turned this far around the disc's axis (counter-clockwise seen from above; nearest
+# first). 30° moves an 80 mm housing 300 mm away ~150 mm aside; beyond 60° the first order's
+# wavelengths fall with |ωi + ωo| in the plane.
+_OFF_PLANE_TURNS_DEG = (30.0, -30.0, 60.0, -60.0, 90.0, -90.0)
+_OFF_PLANE_ANALYSED = 15  # per turn: the fallback costs ≤ 6 × 15 full analyses (~0.1 s each)
 
 
 @dataclass(frozen=True)
@@ -82,6 +95,13 @@ class Plan:
     report: SetUpReport
     read_side: str  # "camera side", "lamp side", "both sides"
     notes: tuple[str, ...] = field(default=())
+    lamp_turn_deg: float = 0.0  # the lamp turned around the disc's axis out of the camera's plane (ccw from above)
+
+    @property
+    def lamp_azimuth_from_camera_deg(self) -> float:
+        """How far counter-clockwise (seen from above the disc) the lamp stands from the camera."""
+        in_plane = 180.0 if self.lamp_angle_deg > 0 else 0.0
+        return (in_plane + self.lamp_turn_deg) % 360.0
 
     def instructions(self) -> list[str]:
         """Plain steps with distances and angles."""
@@ -97,15 +117,19 @@ class Plan:
                 "Darken the room; expose so the streak is bright but not clipped.",
             ]
         side = "on the other side of the disc from the camera" if self.lamp_angle_deg > 0 else "on the camera's side"
+        where = (f"{side}, in the same vertical plane as the camera" if self.lamp_turn_deg == 0.0 else
+                 f"{self.lamp_azimuth_from_camera_deg:g}° counter-clockwise from the camera around the disc, seen "
+                 f"from above (turned {abs(self.lamp_turn_deg):g}° out of the camera's vertical plane, "
+                 "so its housing stands aside)")
         return [
             "Lay the CD flat, label down.",
             f"Camera on a tripod {self.camera_distance_mm:.0f} mm from the disc centre, "
             f"{self.camera_angle_deg:g}° from vertical (lens {cam[2]:.0f} mm above the disc plane, "
             f"{abs(cam[0]):.0f} mm out from the centre), aimed at the centre.",
             f"Lamp {self.lamp_distance_mm:.0f} mm from the disc centre, {abs(self.lamp_angle_deg):g}° from vertical, "
-            f"{side}, in the same vertical plane as the camera (lamp {lamp[2]:.0f} mm above the disc plane, "
-            f"{abs(lamp[0]):.0f} mm out).",
-            f"The rainbow is a thin streak through the centre; read it on the {self.read_side}.",
+            f"{where} (lamp {lamp[2]:.0f} mm above the disc plane, {math.hypot(lamp[0], lamp[1]):.0f} mm out).",
+            "The rainbow is a thin streak through the centre" + ("" if self.lamp_turn_deg == 0.0 else ", curved")
+            + f"; read it on the {self.read_side}.",
         ]
 
     def to_dict(self) -> dict[str, Any]:
@@ -114,6 +138,7 @@ class Plan:
             "lamp_angle_deg": self.lamp_angle_deg,
             "lamp_distance_mm": self.lamp_distance_mm,
             "lamp_offset_mm": self.lamp_offset_mm,
+            "lamp_azimuth_from_camera_deg": self.lamp_azimuth_from_camera_deg,
             "camera_angle_deg": self.camera_angle_deg,
             "camera_distance_mm": self.camera_distance_mm,
             "camera_position_mm": list(self.setup.preset.camera.nominal_position_mm),
@@ -207,14 +232,30 @@ def _line_lambda(camera: np.ndarray, lamp: np.ndarray, s: np.ndarray, pitch_nm: 
     return np.abs(u) * pitch_nm
 
 
+def _tangent_lambda(camera: np.ndarray, lamp: np.ndarray, s: np.ndarray, pitch_nm: float) -> np.ndarray:
+    """λ₁ ≈ d·|(ωi + ωo)·ê| along the line through the centre in the direction ê of the in-plane
+    part of ωi + ωo there — the tangent of the first order's curve at the centre (exact where lamp
+    and camera share a plane with the axis). For ranking many candidates at once; the full
+    analysis follows the curve. camera, lamp (N, 3) mm, s (S,) mm."""
+    h = lamp / np.linalg.norm(lamp, axis=1, keepdims=True) + camera / np.linalg.norm(camera, axis=1, keepdims=True)
+    e = np.stack([h[:, 0], h[:, 1], np.zeros(len(h))], axis=1)
+    e /= np.maximum(np.linalg.norm(e, axis=1, keepdims=True), 1e-12)
+    p = s[None, :, None] * e[:, None, :]  # (N, S, 3)
+    wi = lamp[:, None, :] - p
+    wo = camera[:, None, :] - p
+    h_s = wi / np.linalg.norm(wi, axis=-1, keepdims=True) + wo / np.linalg.norm(wo, axis=-1, keepdims=True)
+    return np.abs(np.sum(h_s * e[:, None, :], axis=-1)) * pitch_nm
+
+
 def _quick_metrics(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min: float,
-                   r_max: float) -> dict[str, np.ndarray]:
+                   r_max: float, along: Any = None) -> dict[str, np.ndarray]:
     """Per candidate, from λ₁ on the data area of both halves of the line (occlusion ignored:
     the full analysis checks that): does it cover 400–700 nm (on one side / with both), by how
     much margin, and does the zero-order glint fall on the data area."""
     half = np.linspace(r_min, r_max, 72)
-    plus = _line_lambda(camera, lamp, half, pitch_nm)
-    minus = _line_lambda(camera, lamp, -half, pitch_nm)
+    line = _line_lambda if along is None else along
+    plus = line(camera, lamp, half, pitch_nm)
+    minus = line(camera, lamp, -half, pitch_nm)
     lo, hi = VISIBLE_NM
     a_lo, a_hi, b_lo, b_hi = plus.min(1), plus.max(1), minus.min(1), minus.max(1)
     one_a = (a_lo <= lo) & (a_hi >= hi)
@@ -227,14 +268,19 @@ def _quick_metrics(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min:
     return {"covers": one_a | one_b | union, "single": one_a | one_b, "margin": margin, "glint": glint}
 
 
-def _read_side(report: SetUpReport, camera_x: float) -> tuple[str, bool]:
-    """Which half of the streak line to read, in words, and whether one half holds 400–700 nm."""
+def _read_side(report: SetUpReport, camera: np.ndarray) -> tuple[str, bool]:
+    """Which half of the streak to read, in words, and whether one half holds 400–700 nm."""
     if report.read_side == 0:
         return "both sides", False
-    direction = report.line_direction[0] * report.read_side
-    if abs(camera_x) < 1e-9:
+    if math.hypot(camera[0], camera[1]) < 1e-9:
         return ("side towards the source" if report.read_side > 0 else "side away from the source"), True
-    return ("camera side" if direction * camera_x > 0 else "far side from the camera"), True
+    if not report.coplanar:  # a curve: say where the arm to read leaves the centre, as the lamp's azimuth is given
+        arm = math.degrees(math.atan2(report.line_direction[1], report.line_direction[0])) + (
+            0.0 if report.read_side > 0 else 180.0)
+        turn = (arm - math.degrees(math.atan2(camera[1], camera[0]))) % 360.0
+        return f"arm that leaves the centre {turn:.0f}° counter-clockwise from the camera's direction", True
+    towards = (report.line_direction[0] * camera[0] + report.line_direction[1] * camera[1]) * report.read_side
+    return ("camera side" if towards > 0 else "far side from the camera"), True
 
 
 def _margin(report: SetUpReport) -> float:
@@ -296,20 +342,22 @@ def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int 
                                                       -min(float(quick["margin"][i]), 60.0), cands[i][4]))
     best: tuple[tuple[Any, ...], Plan] | None = None
     reasons: dict[str, int] = {}
-    for i in order[:max_analysed]:
+
+    def consider(i: int, turn_deg: float) -> None:
+        nonlocal best
         cand = cands[i]
-        camera, lamp = cam_arr[i], lamp_arr[i]
+        camera, lamp = cam_arr[i], _turned(lamp_arr[i], turn_deg)
         sigma = math.hypot(sigma_src, angular_sigma(_aperture_mm(equipment), float(np.linalg.norm(camera))))
         preset = _preset(equipment, name, tuple(camera.tolist()), tuple(lamp.tolist()), sigma)
         setup = _setup(equipment, preset, cand[0], housing=cand[0] == OBLIQUE)
         report = analyse(setup)
         if not report.covers_visible or report.occlusions:
             reasons["blocked"] = reasons.get("blocked", 0) + 1
-            continue
+            return
         if not report.disc_in_frame:
             reasons["frame"] = reasons.get("frame", 0) + 1
-            continue
-        side, single = _read_side(report, float(camera[0]))
+            return
+        side, single = _read_side(report, camera)
         glint = any(disc.grating_r_min_mm <= abs(g) <= disc.grating_r_max_mm for g in report.glint_mm)
         worst = max(report.resolution_nm.values()) if report.resolution_nm else float("inf")
         margin = _margin(report)
@@ -317,11 +365,40 @@ def plan_capture(equipment: Equipment, name: str = "planned", max_analysed: int 
         if best is None or key < best[0]:
             plan = Plan(family=cand[0], lamp_angle_deg=cand[1], lamp_distance_mm=float(np.linalg.norm(lamp)),
                         lamp_offset_mm=cand[2], camera_angle_deg=cand[3], camera_distance_mm=cand[4],
-                        setup=setup, report=report, read_side=side, notes=report.occlusions + report.notes)
+                        setup=setup, report=report, read_side=side, notes=report.occlusions + report.notes,
+                        lamp_turn_deg=turn_deg)
             best = (key, plan)
+
+    for i in order[:max_analysed]:
+        consider(i, 0.0)
+    if best is None and reasons.get("blocked"):  # in the camera's plane something is always in the way
+        oblique = np.array([i for i, c in enumerate(cands) if c[0] == OBLIQUE], dtype=np.int64)
+        for turn in _OFF_PLANE_TURNS_DEG:
+            if oblique.size == 0:
+                break
+            turned = np.array([_turned(lamp_arr[i], turn) for i in oblique])
+            q = _quick_metrics(cam_arr[oblique], turned, disc.pitch_um * 1e3, disc.grating_r_min_mm,
+                               disc.grating_r_max_mm, along=_tangent_lambda)
+            fits = np.flatnonzero(q["covers"] & (turned[:, 2] > 0))
+            ranked = sorted(fits, key=lambda j: (bool(q["glint"][j]), not bool(q["single"][j]),
+                                                 bool(q["margin"][j] < 15.0), round(fwhm[oblique[j]] * 2.0) / 2.0,
+                                                 -min(float(q["margin"][j]), 60.0), cands[oblique[j]][4]))
+            for j in ranked[:_OFF_PLANE_ANALYSED]:
+                consider(int(oblique[j]), turn)
+            if best is not None:  # the smallest turn that works
+                break
     if best is None:
         raise PlanError(_no_plan_message(equipment, int(ok.sum()), reasons))
     return best[1]
+
+
+def _turned(lamp: np.ndarray, turn_deg: float) -> np.ndarray:
+    """The lamp turned ``turn_deg`` around the disc's axis (counter-clockwise seen from above)."""
+    if turn_deg == 0.0:
+        return lamp
+    t = math.radians(turn_deg)
+    return np.array([lamp[0] * math.cos(t) - lamp[1] * math.sin(t), lamp[0] * math.sin(t) + lamp[1] * math.cos(t),
+                     lamp[2]])
 
 
 def _lamp_distances_that_work(equipment: Equipment) -> list[float]:
@@ -353,7 +430,8 @@ def _no_plan_message(equipment: Equipment, geometric: int, reasons: dict[str, in
         parts.append("the camera body or the lamp housing is in the way (or they collide)")
     if reasons.get("frame"):
         parts.append("the disc does not fit the frame")
-    return (f"every position that puts 400–700 nm on the data area fails: {' or '.join(parts)}; "
+    return (f"every position that puts 400–700 nm on the data area fails, in the camera's plane and with the lamp "
+            f"turned up to {max(_OFF_PLANE_TURNS_DEG):g}° out of it: {' or '.join(parts)}; "
             "try a smaller lamp housing, a wider lens or a more distant lamp")
 
 
