@@ -38,7 +38,8 @@ from extension_support import (  # noqa: F401  (pytest fixtures)
 pytestmark = pytest.mark.blender
 
 TESTS_DIR = str(Path(__file__).resolve().parent)
-OPERATORS = ("estimate_spd", "create_light", "apply_to_light", "export_spd", "load_reference_spd", "calibrate")
+OPERATORS = ("estimate_spd", "create_light", "apply_to_light", "export_spd", "load_reference_spd", "calibrate",
+             "save_measured_setup")
 
 
 def _store(addon: Installed, data: dict[str, Any]) -> None:
@@ -459,6 +460,12 @@ if scenario == "group_deleted":
     bpy.data.node_groups.remove(settings.node_group)
 if scenario == "setup":
     settings.preset = "tripod-oblique"
+if scenario == "measured":  # a user preset of a lamp off the camera's plane: the capture panel's curved streak
+    os.environ["CD_SPECTRA_PRESET_DIR"] = os.path.join(repo_dir, os.pardir, "draw-presets")
+    settings.setup_lamp_distance_mm, settings.setup_lamp_angle_deg, settings.setup_lamp_azimuth_deg = 700.0, 83.5, 165.0
+    settings.setup_camera_distance_mm, settings.setup_camera_angle_deg = 230.0, 38.0
+    settings.setup_name = "kim"
+    assert bpy.ops.cd_spectra.save_measured_setup() == {"FINISHED"} and settings.preset == "kim"
 result = {"drawn": [], "errors": []}
 
 def draw(menu, context):
@@ -480,7 +487,7 @@ os._exit(3)
 '''
 
 
-@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup"])
+@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured"])
 def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenario: str) -> None:
     """Panels drawn into a real ``UILayout`` (not a stub).
 
@@ -497,7 +504,7 @@ def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenar
     result = json.loads(line[len("RESULT "):])
     assert result["errors"] == [], "\n".join(result["errors"])
     assert result["drawn"] == ["CDSPECTRA_PT_main", "CDSPECTRA_PT_result", "CDSPECTRA_PT_compare",
-                               "CDSPECTRA_PT_calibrate", "CDSPECTRA_PT_capture"]
+                               "CDSPECTRA_PT_calibrate", "CDSPECTRA_PT_capture", "CDSPECTRA_PT_measured"]
     problems = [ln for ln in output.splitlines()
                 if re.search(r"not found|unknown operator|Traceback|Error(?! \(bke\.icons\))", ln)
                 and "bke.icons" not in ln]
@@ -523,6 +530,66 @@ def test_capture_panel_advice_is_the_set_up_analysis(addon: Installed) -> None:
     assert any("nm FWHM" in line for line in summary)
     steps, summary = panels.capture_advice("cd-default")
     assert steps == [] and "phone-near-axis" in summary[0] and "plan" in summary[0]
+
+
+def _kim(settings: Any, name: str = "kim") -> None:
+    """Kim 2023's case 1 typed into the form: lamp 700 mm at 83.5°, camera 230 mm at 38°, 165° apart."""
+    settings.setup_lamp_distance_mm, settings.setup_lamp_angle_deg, settings.setup_lamp_azimuth_deg = 700.0, 83.5, 165.0
+    settings.setup_camera_distance_mm, settings.setup_camera_angle_deg, settings.setup_camera_azimuth_deg = 230.0, 38.0, 0.0
+    settings.setup_lamp_size_mm = 5.0
+    settings.setup_name = name
+
+
+def test_measured_set_up_is_saved_as_a_user_preset_and_selected(addon: Installed, tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    folders = addon.sub("cd_spectra_addon.core.user_folders")
+    monkeypatch.setenv(folders.PRESET_ENV_DIR, str(tmp_path / "presets"))
+    settings = bpy.context.scene.cd_spectra
+    _kim(settings)
+    assert bpy.ops.cd_spectra.save_measured_setup() == {"FINISHED"}
+    assert (tmp_path / "presets" / "kim.json").is_file()
+    assert settings.preset == "kim"  # selected for the next estimate
+    items = addon.sub("cd_spectra_addon.blender.properties").preset_items(None, None)
+    assert items[-1][0] == "kim" and items[-1][2].startswith("Your preset: Measured set-up: lamp 700 mm")
+    assert [i[0] for i in items[:-1]] == addon.sub("cd_spectra_addon.core.scene.capture").preset_names()
+    preset = addon.sub("cd_spectra_addon.core.scene.capture").load_preset("kim")
+    assert preset.light.lobe_sigma == pytest.approx(5.0 / (4 * 700.0))
+    steps, summary = addon.sub("cd_spectra_addon.blender.panels").capture_advice("kim")
+    assert steps[2].startswith("Lamp 700 mm from the disc centre, 83.5° from the disc's axis")
+    assert summary[1].startswith("  arm + (azimuth 147° to 151°)")
+    # Saved again under the same name with other numbers: the menu and the advice follow the file.
+    settings.setup_lamp_azimuth_deg = 180.0
+    assert bpy.ops.cd_spectra.save_measured_setup() == {"FINISHED"}
+    steps, summary = addon.sub("cd_spectra_addon.blender.panels").capture_advice("kim")
+    assert "180° counter-clockwise from the camera" in steps[2] and summary[1].startswith("  side +")
+
+
+@pytest.mark.parametrize("field,value,message", [
+    ("setup_lamp_angle_deg", 95.0, "below the disc's plane"),
+    ("setup_camera_distance_mm", 0.0, "camera distance from the disc centre (mm) must be a number > 0"),
+    ("setup_name", "cd-default", "ships with CD Spectra"),
+])
+def test_impossible_measurements_are_refused_and_change_nothing(addon: Installed, tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch, field: str,
+                                                                value: Any, message: str) -> None:
+    folders = addon.sub("cd_spectra_addon.core.user_folders")
+    monkeypatch.setenv(folders.PRESET_ENV_DIR, str(tmp_path / "presets"))
+    settings = bpy.context.scene.cd_spectra
+    _kim(settings)
+    setattr(settings, field, value)
+    with pytest.raises(RuntimeError, match=re.escape(message)):
+        bpy.ops.cd_spectra.save_measured_setup()
+    assert not (tmp_path / "presets").exists() and settings.preset == "cd-default"
+
+
+def test_user_presets_live_beside_the_calibrations_in_the_extensions_user_folder(addon: Installed,
+                                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    folders = addon.sub("cd_spectra_addon.core.user_folders")
+    monkeypatch.delenv(folders.PRESET_ENV_DIR, raising=False)
+    monkeypatch.delenv(folders.ENV_DIR, raising=False)
+    assert folders.preset_dir().name == "presets" and folders.calibration_dir().name == "calibrations"
+    assert folders.preset_dir().parent == folders.calibration_dir().parent
+    assert ".config/cd_spectra" not in str(folders.preset_dir())  # Blender's folder, not the CLI's default
 
 
 # --- operators that call the core (a fake estimator stands in for the model) ------------------

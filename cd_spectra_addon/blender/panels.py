@@ -182,13 +182,20 @@ class CDSPECTRA_PT_calibrate(_SidebarPanel, bpy.types.Panel):
         op.profile_name = settings.calibration_name
 
 
-_ADVICE: dict[str, tuple[list[str], list[str]]] = {}  # preset → (steps, summary); presets ship with the add-on
+_ADVICE: dict[tuple[str, int], tuple[list[str], list[str]]] = {}  # (preset, file's mtime) → (steps, summary)
 
 
 def capture_advice(preset: str) -> tuple[list[str], list[str]]:
     """(steps to build it, what it gives) for a preset, from the core's set-up analysis; once per
-    preset (a few ms). Presets that are not buildable set-ups point to the others and the planner."""
-    if preset not in _ADVICE:
+    preset file (a few ms; a user's preset saved again is analysed again). Presets that are not
+    buildable set-ups point to the others, the planner and the measured set-up form."""
+    from ..core.scene.capture import preset_path
+
+    try:
+        key = (preset, preset_path(preset).stat().st_mtime_ns)
+    except OSError:
+        key = (preset, 0)
+    if key not in _ADVICE:
         from ..core.errors import CDSpectraError
         from ..core.planning.planner import setup_summary
         from ..core.planning.setups import analyse, load_setup, setup_names
@@ -196,12 +203,13 @@ def capture_advice(preset: str) -> tuple[list[str], list[str]]:
         try:
             setup = load_setup(preset)
         except CDSpectraError:
-            _ADVICE[preset] = ([], [f"Not a set-up you can build as described (the lamp sits on the lens axis). "
-                                    f"Buildable: {', '.join(setup_names())}; or run 'python -m cd_spectra_addon "
-                                    "plan' for your lamp and camera."])
+            _ADVICE[key] = ([], [f"Not a set-up you can build as described (the lamp sits on the lens axis). "
+                                 f"Buildable: {', '.join(setup_names())}; or run 'python -m cd_spectra_addon "
+                                 "plan' for your lamp and camera, or describe where yours stand under "
+                                 "'Your Set-up, Measured'."])
         else:
-            _ADVICE[preset] = (list(setup.steps), setup_summary(analyse(setup)))
-    return _ADVICE[preset]
+            _ADVICE[key] = (list(setup.steps), setup_summary(analyse(setup)))
+    return _ADVICE[key]
 
 
 class CDSPECTRA_PT_capture(_SidebarPanel, bpy.types.Panel):
@@ -225,8 +233,39 @@ class CDSPECTRA_PT_capture(_SidebarPanel, bpy.types.Panel):
             _wrapped(box, context, line.strip(), "INFO" if k == 0 else "NONE")
 
 
+class CDSPECTRA_PT_measured(_SidebarPanel, bpy.types.Panel):
+    """A set-up described by what was measured, saved as a preset of the user's."""
+
+    bl_idname = "CDSPECTRA_PT_measured"
+    bl_label = "Your Set-up, Measured"
+    bl_parent_id = "CDSPECTRA_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            return
+        _wrapped(layout, context, "Where lamp and camera stood: distance from the disc centre, angle from the "
+                 "disc's axis (0: straight above) and azimuth around it, seen from above, counter-clockwise "
+                 "(facing the disc from the camera, +90° is on your right). The camera is aimed at the centre.")
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column(align=True)
+        for name in ("setup_lamp_distance_mm", "setup_lamp_angle_deg", "setup_lamp_azimuth_deg"):
+            col.prop(settings, name)
+        col = layout.column(align=True)
+        for name in ("setup_camera_distance_mm", "setup_camera_angle_deg", "setup_camera_azimuth_deg"):
+            col.prop(settings, name)
+        col = layout.column()
+        for name in ("setup_disc", "setup_lamp_size_mm", "setup_focal_mm", "setup_sensor_width_mm",
+                     "setup_aperture_mm", "setup_name"):
+            col.prop(settings, name)
+        layout.operator("cd_spectra.save_measured_setup", icon="PRESET_NEW")
+
+
 classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_result, CDSPECTRA_PT_compare, CDSPECTRA_PT_calibrate,
-           CDSPECTRA_PT_capture)
+           CDSPECTRA_PT_capture, CDSPECTRA_PT_measured)
 
 
 def register() -> None:

@@ -1,7 +1,8 @@
 """Scene settings of the add-on (``scene.cd_spectra``) and the choices its menus offer.
 
-Capture presets, cameras and calibration profiles come from the core at draw time (dynamic
-enums), so registering reads no files. Dynamic enum items carry a number derived from the
+Capture presets (the shipped ones, then the user's own from their presets folder), cameras and
+calibration profiles come from the core at draw time (dynamic enums), so registering reads no
+files. Dynamic enum items carry a number derived from the
 identifier's CRC-32: a .blend saved with one camera list reopens on the same camera when a later
 version adds cameras (plain indices would shift).
 """
@@ -14,6 +15,7 @@ from typing import Any
 import bpy
 from bpy.props import (
     EnumProperty,
+    FloatProperty,
     PointerProperty,
     StringProperty,
 )
@@ -42,6 +44,9 @@ REFERENCE_LAMPS = [
 
 # Blender keeps only pointers to enum item strings: the lists must stay alive in Python.
 _ITEMS: dict[str, list[tuple[str, str, str, int]]] = {}
+_USER_PRESETS: dict[str, tuple[tuple[str, int], ...]] = {}  # the user preset files the menu was built from
+
+DISCS = [("cd", "CD", "A CD: track pitch 1.6 µm", 0), ("dvd", "DVD", "A DVD: track pitch 0.74 µm", 1)]
 
 
 def stable_number(identifier: str) -> int:
@@ -49,10 +54,26 @@ def stable_number(identifier: str) -> int:
     return zlib.crc32(identifier.encode("utf-8")) & 0x7FFFFFFF
 
 
-def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
-    if "preset" not in _ITEMS:
-        from ..core.scene.capture import load_preset, preset_names
+def _user_preset_files() -> tuple[tuple[str, int], ...]:
+    """(name, modification time) of the user's presets: what the menu's user part depends on."""
+    from ..core.scene.capture import preset_path, user_preset_names
 
+    out = []
+    for name in user_preset_names():
+        try:
+            out.append((name, preset_path(name).stat().st_mtime_ns))
+        except OSError:
+            continue
+    return tuple(out)
+
+
+def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
+    """Shipped presets (read once), then the user's own (re-listed when their folder changes: a
+    folder listing per call, descriptions read only for new or changed files)."""
+    from ..core.errors import CDSpectraError
+    from ..core.scene.capture import load_preset, preset_names
+
+    if "shipped_presets" not in _ITEMS:
         items = []
         for name in preset_names():
             try:
@@ -60,7 +81,18 @@ def preset_items(_self: Any, _context: Any) -> list[tuple[str, str, str, int]]:
             except ValueError:
                 continue
             items.append((name, name, description, stable_number(name)))
-        _ITEMS["preset"] = items
+        _ITEMS["shipped_presets"] = items
+    files = _user_preset_files()
+    if _USER_PRESETS.get("files") != files or "preset" not in _ITEMS:
+        mine = []
+        for name, _ in files:
+            try:
+                description = load_preset(name).description or name
+            except CDSpectraError as exc:
+                description = f"cannot be used: {exc}"
+            mine.append((name, name, f"Your preset: {description}", stable_number(name)))
+        _USER_PRESETS["files"] = files
+        _ITEMS["preset"] = _ITEMS["shipped_presets"] + mine
     return _ITEMS["preset"]
 
 
@@ -138,6 +170,34 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     calibration_name: StringProperty(name="Calibration name", default="my-camera",
                                       description="Name to save the calibration profile under")
 
+    # A set-up described by what can be measured (core.planning.measured): saved as a preset of the user's.
+    # Limits are loose on purpose: the core refuses what cannot be, with a message naming the field.
+    setup_name: StringProperty(name="Preset name", default="my-setup",
+                               description="Name to save this set-up under, as a preset of yours")
+    setup_lamp_distance_mm: FloatProperty(name="Lamp distance (mm)", default=300.0, min=0.0, soft_max=5000.0,
+                                          description="From the disc centre to the lamp (its glowing part)")
+    setup_lamp_angle_deg: FloatProperty(name="Lamp angle (°)", default=30.0, min=0.0, max=180.0,
+                                        description="From the disc's axis: 0 straight above the disc, 90 in its plane")
+    setup_lamp_azimuth_deg: FloatProperty(name="Lamp azimuth (°)", default=180.0, min=-360.0, max=360.0,
+                                          description="Around the disc's axis, seen from above, counter-clockwise; "
+                                                      "facing the disc from the camera, +90° from the camera is "
+                                                      "on your right")
+    setup_camera_distance_mm: FloatProperty(name="Camera distance (mm)", default=250.0, min=0.0, soft_max=2000.0,
+                                            description="From the disc centre to the lens")
+    setup_camera_angle_deg: FloatProperty(name="Camera angle (°)", default=35.0, min=0.0, max=180.0,
+                                          description="From the disc's axis: 0 straight above the disc")
+    setup_camera_azimuth_deg: FloatProperty(name="Camera azimuth (°)", default=0.0, min=-360.0, max=360.0,
+                                            description="Measured like the lamp's; only the difference matters")
+    setup_disc: EnumProperty(name="Disc", items=DISCS, default="cd")
+    setup_lamp_size_mm: FloatProperty(name="Lamp size (mm)", default=0.0, min=0.0, soft_max=100.0,
+                                      description="Glowing part (filament, LED, a card's hole); 0: not known")
+    setup_focal_mm: FloatProperty(name="Focal length (mm)", default=26.0, min=0.0, soft_max=600.0,
+                                  description="Lens focal length; a phone's 35 mm-equivalent with a 36 mm sensor")
+    setup_sensor_width_mm: FloatProperty(name="Sensor width (mm)", default=36.0, min=0.0, soft_max=50.0,
+                                         description="The sensor width the focal length is for (36: 35 mm-equivalent)")
+    setup_aperture_mm: FloatProperty(name="Aperture (mm)", default=3.0, min=0.0, soft_max=50.0,
+                                     description="Lens entrance pupil: focal length / f-number (a phone: about 3)")
+
 
 def register() -> None:
     bpy.utils.register_class(CDSpectraSettings)
@@ -148,7 +208,14 @@ def register() -> None:
         raise
 
 
+def refresh_presets() -> None:
+    """Forget the preset menu's items (a preset was saved): the next draw lists the folder again."""
+    _ITEMS.pop("preset", None)
+    _USER_PRESETS.clear()
+
+
 def unregister() -> None:
     del bpy.types.Scene.cd_spectra
     bpy.utils.unregister_class(CDSpectraSettings)
     _ITEMS.clear()
+    _USER_PRESETS.clear()

@@ -9,6 +9,7 @@ from .create_light import CDSPECTRA_OT_create_light
 from .estimate_spd import CDSPECTRA_OT_estimate_spd
 from .export_spd import CDSPECTRA_OT_export_spd
 from .load_reference_spd import CDSPECTRA_OT_load_reference_spd
+from .save_measured_setup import CDSPECTRA_OT_save_measured_setup
 
 classes = (
     CDSPECTRA_OT_estimate_spd,
@@ -17,6 +18,7 @@ classes = (
     CDSPECTRA_OT_export_spd,
     CDSPECTRA_OT_load_reference_spd,
     CDSPECTRA_OT_calibrate,
+    CDSPECTRA_OT_save_measured_setup,
 )
 
 
