@@ -10,7 +10,7 @@ sin θi = −ωi·ê and sin θm = ωo·ê (angles from the normal, positive tow
 signed position s shows λ = d|(ωi + ωo)·ê| (m = ±1). Where they are not (a lamp off the
 camera's plane, measured where it happened to be), v = 0 is a curve through the centre that
 bends: its two arms are followed outwards radius by radius, the azimuth where v changes sign
-found by bisection on the kernel's v (:func:`first_order_curve`), and every result below is read
+found by root finding on the kernel's v (:func:`first_order_curve`), and every result below is read
 along them — a signed position is then the radius along an arm (+ or −).
 
 The spectrum is blurred by the angular size of the source (σi) and of the lens's entrance
@@ -292,7 +292,7 @@ class _Track:
     def _follow(self) -> NDArray[np.float64]:
         """ψ (rad, unwrapped along each arm) at :attr:`radii`: per radius, the cells of a 1° grid
         where v changes sign; each arm takes the one nearest its azimuth at the previous radius;
-        then bisection in that cell."""
+        then the root in that cell."""
         step = 2.0 * math.pi / _TRACK_CELLS
         edges = step * np.arange(_TRACK_CELLS)
         v = self.v(self.radii[:, None], edges[None, :])
@@ -311,9 +311,9 @@ class _Track:
                 lo[arm, k] = previous[arm] + turn[best] - step / 2.0  # unwrapped
                 previous[arm] = lo[arm, k] + step / 2.0
         radii = np.broadcast_to(self.radii, lo.shape)
-        return self._bisect(radii, lo, lo + step)
+        return self._root(radii, lo, lo + step)
 
-    def _bisect(self, r: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _root(self, r: NDArray[np.float64], lo: NDArray[np.float64], hi: NDArray[np.float64]) -> NDArray[np.float64]:
         """The azimuth in [lo, hi] where v changes sign (v(lo), v(hi) of opposite sign or zero):
         regula falsi with the Illinois step (the bracket always holds the root; a few steps where
         bisection needs ~40), each step on the points not yet converged (|v| or the bracket
@@ -346,7 +346,7 @@ class _Track:
 
     def azimuths(self, arm: int, radii: NDArray[np.float64]) -> NDArray[np.float64]:
         """ψ (rad) of arm 0 (+) or 1 (−) at any radii: bracketed around the followed arm's
-        azimuth, widened where v does not change sign, then bisected."""
+        azimuth, widened where v does not change sign, then refined to the root."""
         radii = np.asarray(radii, dtype=np.float64)
         guess = np.interp(radii, self.radii, self.psi[arm])
         lo, hi = guess.copy(), guess.copy()
@@ -362,7 +362,7 @@ class _Track:
         if need.any():
             raise CDSpectraError("the first-order curve could not be followed at r = "
                                  f"{float(radii[need][0]):.2f} mm")
-        return self._bisect(radii, lo, hi)
+        return self._root(radii, lo, hi)
 
 
 def first_order_curve(scene: Scene, radii_mm: Any) -> FirstOrderCurve:
