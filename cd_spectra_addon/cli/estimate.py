@@ -141,6 +141,7 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
         from ..blender import properties, state
         from ..blender.light import create_light
         from ..core.spectra.colour import spectral_colour
+        from ..core.photo.frames import split_frame
 
         bpy.ops.wm.read_factory_settings(use_empty=True)
         space = state.working_space()
@@ -160,7 +161,8 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
                 settings = scene.cd_spectra
                 state.store_estimate(settings, data)
                 settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
-                settings.photo_path = str(data.get("source") or "")
+                photo, frame = split_frame(str(data.get("source") or ""))  # FILE.gif#N: the file, its frame
+                settings.photo_path, settings.photo_frame = photo, frame or 0
             try:
                 with atomic_path(path) as tmp:
                     bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)
