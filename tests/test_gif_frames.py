@@ -187,3 +187,18 @@ def test_damaged_gifs_give_photo_errors(case, damage, data):
                 assert str(path) in str(exc)
                 continue
             assert np.isfinite(image.rgb).all() and image.rgb.shape[:2] == image.saturated.shape
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 6), st.integers(0, 9))
+def test_a_frame_is_read_exactly_when_the_gif_has_it(count, frame):
+    palette = np.array([[10, 10, 10], [200, 120, 40], [30, 160, 220]], np.uint8)
+    frames = [Frame(np.full((SIZE[1], SIZE[0]), 1 + i % 2)) for i in range(count)]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = _put(Path(tmp) / "n.gif", gif_bytes(SIZE, palette, frames))
+        name = with_frame(path, frame)
+        if frame < count:
+            assert load_photo(name).rgb[0, 0, 0] == pytest.approx(srgb_decode(palette[1 + frame % 2, 0] / 255.0))
+        else:
+            with pytest.raises(PhotoError, match=f"frame {frame} is out of range; .* has {count} frame"):
+                load_photo(name)
