@@ -118,6 +118,42 @@ def test_one_json_object_per_photo_in_order(tmp_path: Path) -> None:
     assert [ln for ln in _stderr_lines(proc)] == [f"[{i}/3] {p}" for i, p in enumerate(photos, 1)]
 
 
+def _animated_gif(path: Path, frames: int) -> str:
+    import numpy as np
+
+    from gif_writer import Frame, gif_bytes
+
+    palette = np.array([[0, 0, 0], [250, 180, 90], [40, 90, 200]], np.uint8)
+    path.write_bytes(gif_bytes((70, 64), palette, [Frame(np.full((64, 70), 1 + i % 2)) for i in range(frames)]))
+    return str(path)
+
+
+def test_an_animated_gif_is_estimated_frame_by_frame(tmp_path: Path) -> None:
+    """Each frame in order, named FILE.gif#N in the results and the progress; a named frame is
+    that frame only."""
+    gif = _animated_gif(tmp_path / "series.gif", 3)
+    (photo,) = _photos(tmp_path, "a.jpg")
+    out = tmp_path / "out.json"
+    proc = run_cli("estimate", gif, photo, f"{gif}#1", "--json", str(out), "--progress")
+    assert proc.returncode == 0, proc.stderr
+    sources = [f"{gif}#0", f"{gif}#1", f"{gif}#2", photo, f"{gif}#1"]
+    assert [o["source"] for o in json.loads(out.read_text())] == sources
+    assert _stderr_lines(proc) == [f"[{i}/5] {p}" for i, p in enumerate(sources, 1)]
+    for bad, words in ((f"{gif}#x", "by its number counted from 0"), (f"{tmp_path}/none.gif#2", "no such file")):
+        proc = run_cli("estimate", bad, "--json", str(tmp_path / "bad.json"))
+        assert proc.returncode == 2 and words in proc.stderr and len(_stderr_lines(proc)) == 1
+    assert not (tmp_path / "bad.json").exists()
+
+
+def test_a_frame_out_of_range_is_bad_input(tmp_path: Path) -> None:
+    """The real estimator: the loader's message, one line, exit status 2."""
+    gif = _animated_gif(tmp_path / "series.gif", 2)
+    proc = run_cli("estimate", f"{gif}#2", fake=False)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == (f"error: {gif}#2: frame 2 is out of range; {gif} has 2 frames: "
+                                   f"{gif}#0 … {gif}#1")
+
+
 def test_default_output_is_a_summary_for_people(tmp_path: Path) -> None:
     photos = _photos(tmp_path, "a.jpg", "bb.png")
     out = tmp_path / "out.json"

@@ -466,6 +466,15 @@ if scenario == "measured":  # a user preset of a lamp off the camera's plane: th
     settings.setup_camera_distance_mm, settings.setup_camera_angle_deg = 230.0, 38.0
     settings.setup_name = "kim"
     assert bpy.ops.cd_spectra.save_measured_setup() == {"FINISHED"} and settings.preset == "kim"
+if scenario == "gif":  # an animated GIF: the frame field shows
+    import tempfile
+    import numpy as np
+    from gif_writer import Frame, gif_bytes
+    gif = os.path.join(tempfile.mkdtemp(), "series.gif")
+    with open(gif, "wb") as fh:
+        fh.write(gif_bytes((70, 64), np.array([[0, 0, 0], [200, 150, 90]], np.uint8),
+                           [Frame(np.full((64, 70), i % 2)) for i in range(3)]))
+    settings.photo_path, settings.photo_frame = gif, 2
 result = {"drawn": [], "errors": []}
 
 def draw(menu, context):
@@ -487,7 +496,7 @@ os._exit(3)
 '''
 
 
-@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured"])
+@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured", "gif"])
 def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenario: str) -> None:
     """Panels drawn into a real ``UILayout`` (not a stub).
 
@@ -639,6 +648,60 @@ def test_estimate_stores_the_result_and_its_curve(addon: Installed, monkeypatch:
     assert len(bpy.data.node_groups) == 1  # the same SPD again: the group is reused
     assert bpy.ops.cd_spectra.create_light() == {"FINISHED"}
     assert bpy.context.object.data["cd_spectra_photo"] == "cd.jpg"
+
+
+def _animated_gif(path: Path, frames: int) -> Path:
+    from gif_writer import Frame, gif_bytes
+
+    palette = np.array([[0, 0, 0], [200, 150, 90]], np.uint8)
+    path.write_bytes(gif_bytes((70, 64), palette, [Frame(np.full((64, 70), i % 2)) for i in range(frames)]))
+    return path
+
+
+class _Recording:
+    """A layout that records the properties drawn (name, label), for what a panel shows."""
+
+    def __init__(self) -> None:
+        self.props: list[tuple[str, str | None]] = []
+
+    def column(self, **_: Any) -> "_Recording":
+        return self
+
+    row = column
+
+    def prop(self, _data: Any, name: str, **kw: Any) -> None:
+        self.props.append((name, kw.get("text")))
+
+    def operator(self, *_: Any, **__: Any) -> types.SimpleNamespace:
+        return types.SimpleNamespace()
+
+    def label(self, **_: Any) -> None:
+        return None
+
+
+def test_an_animated_gifs_frame_is_chosen_in_the_panel(addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                                       tmp_path: Path) -> None:
+    """The frame field shows for an animated GIF only; the estimate reads FILE.gif#N, the
+    panel's frame unless the operator is given one, and remembers it."""
+    calls = _fake_estimator(addon, monkeypatch)
+    panels = addon.sub("cd_spectra_addon.blender.panels")
+    gif = _animated_gif(tmp_path / "series.gif", 3)
+    still = _animated_gif(tmp_path / "still.gif", 1)
+    settings = bpy.context.scene.cd_spectra
+    shown = {}
+    for photo in (gif, still):
+        settings.photo_path = str(photo)
+        layout = _Recording()
+        panels.CDSPECTRA_PT_main.draw(types.SimpleNamespace(layout=layout), bpy.context)
+        shown[photo.name] = [p for p in layout.props if p[0] == "photo_frame"]
+    assert shown == {"series.gif": [("photo_frame", "Frame (0–2)")], "still.gif": []}
+    settings.photo_path, settings.photo_frame = str(gif), 2
+    assert bpy.ops.cd_spectra.estimate_spd() == {"FINISHED"}
+    assert bpy.ops.cd_spectra.estimate_spd(filepath=str(gif), frame=1) == {"FINISHED"}
+    assert settings.photo_frame == 1
+    assert bpy.ops.cd_spectra.estimate_spd(filepath=str(still)) == {"FINISHED"}
+    assert [c[0] for c in calls] == [f"{gif}#2", f"{gif}#1", str(still)]
+    assert json.loads(settings.estimate_json)["source"] == str(still)
 
 
 def test_estimator_error_is_reported_and_changes_nothing(addon: Installed, monkeypatch: pytest.MonkeyPatch,

@@ -271,8 +271,8 @@ def test_cli_error_line_without_the_harness(tmp_path: Path) -> None:
                           env={"PYTHONPATH": str(hostile.ROOT), "PATH": "/usr/bin:/bin"}, timeout=120)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.splitlines() == [f"error: {bad}: not an image, the file contains text "
-                                        "(supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR and camera raw (CR2, CR3, NEF, ARW, "
-                                            "RAF, ORF, RW2, DNG, ...))"]
+                                        "(supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR, GIF and camera raw (CR2, CR3, NEF, "
+                                        "ARW, RAF, ORF, RW2, DNG, ...))"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.png"]
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import bpy
 
-from . import state
+from . import photo_frames, state
 from .node_group import curve_node
 from .registration import register_classes, unregister_classes
 
@@ -62,6 +62,9 @@ class CDSPECTRA_PT_main(_SidebarPanel, bpy.types.Panel):
         layout.use_property_decorate = False
         col = layout.column()
         col.prop(settings, "photo_path")
+        frames = photo_frames.frame_count(settings.photo_path)
+        if frames > 1:  # an animated GIF: each frame is a photo of its own
+            col.prop(settings, "photo_frame", text=f"Frame (0–{frames - 1})")
         col.prop(settings, "preset")
         col.prop(settings, "camera")
         col.prop(settings, "calibration")
@@ -69,6 +72,7 @@ class CDSPECTRA_PT_main(_SidebarPanel, bpy.types.Panel):
         row.scale_y = 1.4
         op = row.operator("cd_spectra.estimate_spd", icon="LIGHT")
         op.filepath = settings.photo_path
+        op.frame = settings.photo_frame
 
 
 class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):

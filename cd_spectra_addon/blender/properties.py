@@ -16,6 +16,7 @@ import bpy
 from bpy.props import (
     EnumProperty,
     FloatProperty,
+    IntProperty,
     PointerProperty,
     StringProperty,
 )
@@ -26,7 +27,7 @@ from ..core.spectra.illuminants import KNOWN_LAMPS
 
 NO_CALIBRATION = "NONE"
 
-PHOTO_FILTER_GLOB = "*.jpg;*.jpeg;*.png;*.tif;*.tiff;*.exr"
+PHOTO_FILTER_GLOB = "*.jpg;*.jpeg;*.png;*.tif;*.tiff;*.exr;*.gif"
 SPECTRA_FILTER_GLOB = "*.csv;*.tsv;*.txt;*.json;*.spd;*.xml;*.spdx"
 
 LIGHT_TYPES = [
@@ -137,7 +138,10 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     photo_path: StringProperty(
         name="Photo", subtype="FILE_PATH",
         description="Photo of a CD lit by the lamp, lamp and camera on the disc's axis "
-                    "(JPEG, PNG, TIFF or EXR)")
+                    "(JPEG, PNG, TIFF, EXR or GIF)")
+    photo_frame: IntProperty(
+        name="Frame", min=0, default=0,
+        description="Which frame of the animated GIF to read, counted from 0: each frame is a photo of its own")
     preset: EnumProperty(
         name="Capture", items=preset_items, default=stable_number(DEFAULT_PRESET),
         description="How the photo was taken (disc, distances)")

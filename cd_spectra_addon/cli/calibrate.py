@@ -42,10 +42,15 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ..core.spectra.illuminants import KNOWN_LAMPS, LAMP_ALIASES, known_lamp_spd
     from ..core.inverse.calibration_shot import calibrate_photo
     from ..core.spectra.spectra_files import read_reference_spd
+    from ..core.photo.frames import split_frame
 
     if not args.name.strip():
         raise UsageError("--name must not be empty")
-    if not args.photo.is_file():
+    try:
+        file, _ = split_frame(args.photo)  # a GIF's frame is named FILE.gif#N
+    except ValueError as exc:
+        raise UsageError(str(exc)) from exc
+    if not Path(file).is_file():
         raise UsageError(f"{args.photo}: no such file")
     try:
         if args.known_lamp:

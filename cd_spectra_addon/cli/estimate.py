@@ -1,5 +1,7 @@
 """``estimate PHOTO...``: the lamp's SPD from photos of a CD.
 
+An animated GIF is a series of photos: each of its frames is estimated, in order, named
+``FILE.gif#N`` (from 0) in the results; ``FILE.gif#N`` on the command line reads that frame only.
 By default a short summary per photo for people (source, CCT, Duv, xy, confidence, warnings,
 where files went). ``--json FILE`` writes the results (``Estimate.to_json()``) as a JSON array,
 ``--json -`` prints them to stdout, one object per line, in the order given (and no summary).
@@ -28,7 +30,8 @@ HELP = "estimate the lamp's SPD from photos of a CD"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("photos", nargs="+", type=Path, metavar="PHOTO",
-                        help="JPEG, PNG, TIFF, EXR (and camera raw / HEIC where this build reads them)")
+                        help="JPEG, PNG, TIFF, EXR, GIF (and camera raw / HEIC where this build reads them); "
+                             "an animated GIF is each of its frames, FILE.gif#N one of them (from 0)")
     parser.add_argument("--preset", default=DEFAULT_PRESET, help=f"capture preset (default {DEFAULT_PRESET})")
     parser.add_argument("--camera", default="auto",
                         help="camera profile (default: from the photo's EXIF Make/Model, else the generic profile "
@@ -47,22 +50,15 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
         from ..core.inverse.batch import estimate_photos
     except ImportError as exc:
         raise UsageError(f"this build has no estimator ({exc})") from exc
-    for photo in args.photos:
-        try:
-            photo.stat()
-        except FileNotFoundError:
-            raise UsageError(f"{photo}: no such file") from None
-        except OSError as exc:  # e.g. a name too long for the file system
-            raise UsageError(f"{photo}: cannot access the file ({exc.strerror or exc})") from None
+    photos = _photo_list(args.photos)
     results: list[dict[str, Any]] = []
     show = sys.stderr.isatty() if args.progress is None else args.progress
-    many = show and len(args.photos) > 1
-    estimates = estimate_photos([str(p) for p in args.photos], preset=args.preset, camera=args.camera,
-                                calibration=args.calibration)
-    while len(results) < len(args.photos):
-        photo = args.photos[len(results)]
+    many = show and len(photos) > 1
+    estimates = estimate_photos(photos, preset=args.preset, camera=args.camera, calibration=args.calibration)
+    while len(results) < len(photos):
+        photo = photos[len(results)]
         if many:
-            progress(f"[{len(results) + 1}/{len(args.photos)}] {photo}")
+            progress(f"[{len(results) + 1}/{len(photos)}] {photo}")
         try:
             estimate = next(estimates)
         except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
@@ -70,6 +66,26 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
             raise UsageError(message if message.startswith(str(photo)) else f"{photo}: {message}") from exc
         results.append(estimate.to_json())
     return results
+
+
+def _photo_list(paths: Sequence[Path]) -> list[str]:
+    """The photos to estimate, in order: each path given, an animated GIF as each of its frames."""
+    from ..core.errors import PhotoError
+    from ..core.photo.frames import photo_frames, split_frame
+
+    photos: list[str] = []
+    for path in paths:
+        try:
+            file, _ = split_frame(path)
+            Path(file).stat()
+            photos += photo_frames(path)
+        except FileNotFoundError:
+            raise UsageError(f"{path}: no such file") from None
+        except OSError as exc:  # e.g. a name too long for the file system
+            raise UsageError(f"{path}: cannot access the file ({exc.strerror or exc})") from None
+        except PhotoError as exc:
+            raise UsageError(str(exc)) from exc
+    return photos
 
 
 def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
@@ -125,6 +141,7 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
         from ..blender import properties, state
         from ..blender.light import create_light
         from ..core.spectra.colour import spectral_colour
+        from ..core.photo.frames import split_frame
 
         bpy.ops.wm.read_factory_settings(use_empty=True)
         space = state.working_space()
@@ -144,7 +161,8 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
                 settings = scene.cd_spectra
                 state.store_estimate(settings, data)
                 settings.node_group = obj.data.node_tree.nodes["CD Spectra"].node_tree
-                settings.photo_path = str(data.get("source") or "")
+                photo, frame = split_frame(str(data.get("source") or ""))  # FILE.gif#N: the file, its frame
+                settings.photo_path, settings.photo_frame = photo, frame or 0
             try:
                 with atomic_path(path) as tmp:
                     bpy.ops.wm.save_as_mainfile(filepath=str(tmp), copy=True, compress=True)

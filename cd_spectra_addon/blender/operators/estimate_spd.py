@@ -5,10 +5,10 @@ from __future__ import annotations
 from typing import Any
 
 import bpy
-from bpy.props import EnumProperty, StringProperty
+from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from ...core.errors import CDSpectraError
-from .. import state
+from .. import photo_frames, state
 from ..node_group import ensure_node_group, spectral_colour
 from ..progress import progress
 from ..properties import (
@@ -33,6 +33,8 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
 
     filepath: StringProperty(name="Photo", subtype="FILE_PATH", options={"SKIP_SAVE"})
     filter_glob: StringProperty(default=PHOTO_FILTER_GLOB, options={"HIDDEN"})
+    frame: IntProperty(name="Frame", min=0, default=0, options={"SKIP_SAVE"},
+                       description="Frame of an animated GIF, counted from 0 (default: the panel's)")
     preset: EnumProperty(name="Capture", items=preset_items, default=stable_number(DEFAULT_PRESET))
     camera: EnumProperty(name="Camera", items=camera_items, default=stable_number(DEFAULT_CAMERA))
     calibration: EnumProperty(name="Calibration", items=calibration_items, default=0)
@@ -41,6 +43,8 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
         for name in _CHOICES:
             if not self.properties.is_property_set(name) and getattr(settings, name):
                 setattr(self, name, getattr(settings, name))
+        if not self.properties.is_property_set("frame"):
+            self.frame = settings.photo_frame
 
     def invoke(self, context: bpy.types.Context, event: Any) -> set[str]:
         settings = context.scene.cd_spectra
@@ -59,6 +63,7 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
         if not path:
             self.report({"ERROR"}, "Choose a photo of the CD first")
             return {"CANCELLED"}
+        path = photo_frames.photo_with_frame(path, self.frame)  # an animated GIF: the chosen frame
         try:
             from ...core.inverse.estimate import estimate_photo
         except ImportError as exc:
@@ -96,6 +101,7 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
         state.store_estimate(settings, data)
         settings.node_group = group
         settings.photo_path = self.filepath or settings.photo_path
+        settings.photo_frame = self.frame
         for name in _CHOICES:
             if getattr(self, name):
                 setattr(settings, name, getattr(self, name))

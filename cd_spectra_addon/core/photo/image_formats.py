@@ -37,7 +37,7 @@ __all__ = [
     "ExifInfo", "PhotoHeader", "DecodedPixels", "Pixels", "Unsupported", "DECODE_ERRORS",
     "MAX_FILE_BYTES", "MAX_PIXELS", "RAW_EXTENSIONS", "MIN_SIDE", "check_file", "sniff_format", "open_pillow",
     "pillow_header", "pillow_pixels", "exif_from_pillow", "exif_info", "exif_number", "exif_text", "heif_header", "heif_pixels", "tiff_header", "exr_header", "exr_pixels",
-    "array_pixels",
+    "array_pixels", "gif_icc_profile",
 ]
 
 MAX_FILE_BYTES = 512 * 1024 * 1024
@@ -88,13 +88,14 @@ class PhotoHeader:
     """What the file says about itself, read before any pixel is decoded (passed to decoders)."""
 
     path: str
-    format: str  # "jpeg" | "png" | "tiff" | "exr"
+    format: str  # "jpeg" | "png" | "tiff" | "exr" | "heif" | "gif"
     width: int
     height: int
     bits: int  # 8 or 16 (integer codes), 32 (float samples)
     channels: int  # colour channels without alpha: 1 (grey) or 3
     transfer: str  # the file's own transfer curve: "srgb" | "linear"
     exif: ExifInfo = field(default_factory=ExifInfo)
+    palette_colours: int = 0  # entries of a palette image's colour table (a GIF: ≤ 256 per frame); 0: none
 
 
 @dataclass(frozen=True)
@@ -156,7 +157,8 @@ def sniff_format(path: Path) -> str:
             head = fh.read(64)
     except OSError as exc:
         raise PhotoError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
-    supported = "supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR and camera raw (CR2, CR3, NEF, ARW, RAF, ORF, RW2, DNG, ...)"
+    supported = ("supported: JPEG, HEIC/HEIF, PNG, TIFF, OpenEXR, GIF and camera raw "
+                 "(CR2, CR3, NEF, ARW, RAF, ORF, RW2, DNG, ...)")
     if path.suffix.lower() in RAW_EXTENSIONS or (head[4:8] == b"ftyp" and head[8:12] == b"crx ") \
             or head.startswith(b"FUJIFILMCCD-RAW"):
         return "raw"
@@ -168,6 +170,8 @@ def sniff_format(path: Path) -> str:
         return "tiff"
     if head.startswith(b"v/1\x01"):
         return "exr"
+    if head.startswith(b"GIF8"):
+        return "gif"
     if head[4:8] == b"ftyp" and head[8:12] in HEIF_BRANDS:
         return "heif"
     other = _other_format(head)
@@ -185,7 +189,7 @@ def _other_format(head: bytes) -> str | None:
         brand = head[8:12]
         if brand in (b"avif", b"avis"):
             return "AVIF"
-    known = [(b"GIF8", "GIF"), (b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
+    known = [(b"BM", "BMP"), (b"8BPS", "Photoshop PSD"), (b"#?RADIANCE", "Radiance HDR"),
              (b"#?RGBE", "Radiance HDR"), (b"\x00\x00\x00\x0cjP  ", "JPEG 2000"),
              (b"\xff\x4f\xff\x51", "JPEG 2000"),
              (b"%PDF", "PDF"), (b"\xff\x0a", "JPEG XL"),
@@ -283,7 +287,17 @@ def pillow_header(im: Any, path: Path, fmt: str) -> PhotoHeader:
     else:
         linear = False
     return PhotoHeader(str(path), fmt, im.width, im.height, bits, 1 if grey else 3,
-                       "linear" if linear else "srgb")
+                       "linear" if linear else "srgb", palette_colours=_palette_colours(im, fmt))
+
+
+def _palette_colours(im: Any, fmt: str) -> int:
+    """Entries of the colour table a palette image's codes index (0: not a palette image). A
+    GIF is palette-coded throughout, though Pillow hands frames after the first out as RGB."""
+    palette = getattr(im, "palette", None) if im.mode in ("P", "PA") else None
+    entries = len(palette.palette) // 3 if palette is not None and palette.palette else 0
+    if fmt == "gif":
+        return min(entries, 256) or 256
+    return min(entries, 256) or (256 if im.mode in ("P", "PA") else 0)
 
 
 def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int,
@@ -326,8 +340,11 @@ def pillow_pixels(im: Any, path: Path, fmt: str, header: PhotoHeader, draft: int
     if mode in ("1",):
         im = keep(im.convert("L"))
     elif mode in ("P", "PA", "CMYK", "YCbCr", "LAB", "HSV"):
+        # A palette with per-entry alpha (PNG tRNS) converted to RGB makes Pillow warn; to RGBA it
+        # gives the same colours and an alpha that is ignored here, as everywhere.
+        target = "RGBA" if mode == "P" and "transparency" in im.info else "RGB"
         try:
-            im = keep(im.convert("RGB"))
+            im = keep(im.convert(target))
         except ValueError as exc:
             raise Unsupported(f"cannot convert {mode} pixels to RGB ({exc})") from None
     mode = im.mode
@@ -387,7 +404,10 @@ _UNIT_PER_MM = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0, 5: 1000.0}  # FocalPlaneResolu
 def exif_from_pillow(im: Any) -> ExifInfo:
     """The few EXIF fields we use (and the ICC profile's name). Damaged EXIF is metadata we can
     do without: it yields None fields, never a failure to load the photo."""
-    icc = icc_description(im.info.get("icc_profile"))
+    profile = im.info.get("icc_profile")
+    if profile is None and getattr(im, "format", None) == "GIF" and getattr(im, "filename", None):
+        profile = gif_icc_profile(Path(im.filename))  # Pillow leaves the GIF's ICC extension unread
+    icc = icc_description(profile)
     try:
         return replace(exif_from_tags(im.getexif()), icc_profile=icc)
     except DECODE_ERRORS:
@@ -442,6 +462,46 @@ def icc_description(icc: bytes | None) -> str | None:
         return str(ImageCms.ImageCmsProfile(io.BytesIO(icc)).profile.profile_description or "").strip()
     except (ImportError, OSError, ValueError, TypeError, AttributeError):
         return ""
+
+
+_GIF_ICC = b"ICCRGBG1012"
+
+
+def gif_icc_profile(path: Path) -> bytes | None:
+    """The ICC profile a GIF carries in an ``ICCRGBG1012`` application extension before its
+    first image (a phone's photo turned into a GIF keeps its Display P3 profile there), or None.
+    Damaged blocks are no error: the profile is metadata we can do without."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(13)
+            if len(head) < 13 or not head.startswith(b"GIF8"):
+                return None
+            flags = head[10]
+            if flags & 0x80:
+                fh.seek(3 << ((flags & 7) + 1), os.SEEK_CUR)  # the global colour table
+            while True:
+                introducer = fh.read(1)
+                if introducer != b"!":
+                    return None  # an image (","), the end (";") or damage: no profile before the first image
+                label = fh.read(1)
+                blocks = _gif_sub_blocks(fh)
+                if label == b"\xff" and blocks and blocks[0] == _GIF_ICC:
+                    return b"".join(blocks[1:]) or None
+    except OSError:
+        return None
+
+
+def _gif_sub_blocks(fh: BinaryIO) -> list[bytes]:
+    """A GIF extension's data sub-blocks, up to its terminator (or the end of the file)."""
+    blocks = []
+    while True:
+        size = fh.read(1)
+        if not size or size == b"\x00":
+            return blocks
+        data = fh.read(size[0])
+        blocks.append(data)
+        if len(data) < size[0]:
+            return blocks
 
 
 # --- HEIC / HEIF ------------------------------------------------------------------------------

@@ -6,7 +6,9 @@ through a 3×3 matrix (spectral colours fall outside it and clip) and tone-mappe
 that costs ~5× the error of a raw file (issue 11). The signs, strongest first:
 
 * the file kind: a HEIC is always a phone's rendering; a linear DNG is demosaiced and possibly
-  colour-processed (flagged by :mod:`.raw_files`);
+  colour-processed (flagged by :mod:`.raw_files`); a GIF or any palette image had its colours
+  quantised to a table of at most 256 by the editor or converter that wrote it (on top of the
+  camera's own rendering: no camera writes a palette image);
 * EXIF: ``WhiteBalance`` is only written by cameras that balance; ``ColorSpace`` sRGB/Adobe RGB
   says the pixels were rendered for display; ``Software`` names the firmware or editor;
 * an ICC profile: pixels converted to a display space;
@@ -67,8 +69,9 @@ def _along(op: np.ufunc, x: NDArray[Any]) -> NDArray[Any]:
 
 
 def judge_processed(fmt: str, encoding: str, exif: ExifInfo, rgb: NDArray[np.floating] | None = None,
-                    saturated: NDArray[np.bool_] | None = None) -> tuple[bool, str]:
-    """(processed, reason) for a loaded non-raw file; the reason names the evidence."""
+                    saturated: NDArray[np.bool_] | None = None, palette_colours: int = 0) -> tuple[bool, str]:
+    """(processed, reason) for a loaded non-raw file; the reason names the evidence.
+    ``palette_colours``: the size of a palette image's colour table (0: not one)."""
     software = (exif.software or "").lower()
     if encoding.startswith("linear"):
         if any(name in software for name in _CONVERTERS):
@@ -78,6 +81,12 @@ def judge_processed(fmt: str, encoding: str, exif: ExifInfo, rgb: NDArray[np.flo
     reasons = []
     if fmt == "heif":
         reasons.append("a HEIC/HEIF file, which phones always white-balance, colour-convert and tone-map")
+    if fmt == "gif":
+        reasons.append("a GIF, whose colours an editor or converter quantised to a palette of at most 256 "
+                       "per frame (after the camera's own rendering)")
+    elif palette_colours:
+        reasons.append(f"a palette image of {palette_colours} colours: an editor or converter quantised its colours "
+                       "(after the camera's own rendering)")
     if exif.white_balance is not None:
         reasons.append(f"EXIF WhiteBalance ({'auto' if exif.white_balance == 0 else 'manual'}) says the camera "
                        "white-balanced it")

@@ -1,0 +1,178 @@
+"""The disc's outline when it is darker than a lit surround (real photos: a CD on a lit
+breadboard), and the focal length a circle of known size at a known distance gives.
+
+Photos are rendered (training.simulation: the numpy renderer, the camera's sensitivities, noise)
+with a lit, textured table — a light pool that fades to dark on the far side, a grid of holes,
+a block — around a dark disc, as in Kim's frames; the truth is the exact image of the rim."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cd_spectra_addon.core.photo.resample import box_downsample
+from cd_spectra_addon.core.pose import rim_ellipse
+from cd_spectra_addon.core.pose.edge_outline import dark_disc_outline
+from cd_spectra_addon.core.pose.rim_ellipse import (
+    Ellipse, circle_distance_mm, disc_ellipse, focal_px_from_outline, project_circle,
+)
+from cd_spectra_addon.core.scene import relative_pose
+from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube
+
+CAMERA = load_camera(DEFAULT_CAMERA)
+SIZE = 512
+RIM_MM = 60.0
+
+
+def _lamp() -> np.ndarray:
+    lam = np.arange(380, 781, 5)
+    return np.exp(-0.5 * ((lam - 560) / 90.0) ** 2) + 0.6 * np.exp(-0.5 * ((lam - 611) / 6.0) ** 2)
+
+
+def _scene(pose: Pose, zoom: float = 1.6) -> Scene:
+    preset = load_preset("tripod-oblique").with_image_size(SIZE)
+    preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * zoom))
+    return Scene(preset, pose)
+
+
+def _table(rng: np.random.Generator, pool: tuple[float, float] = (0.25, 0.3)) -> np.ndarray:
+    """A breadboard lit by a pool of light centred at ``pool`` (fractions of width, height)
+    that fades to near black on the far side, with holes every 24 px, a lit block and texture."""
+    rows, cols = np.mgrid[0:SIZE, 0:SIZE].astype(np.float64)
+    dist = np.hypot(cols / SIZE - pool[0], rows / SIZE - pool[1])
+    level = 0.3 * np.exp(-(dist / 0.45) ** 2) + 0.004
+    texture = rng.normal(0.0, 1.0, (SIZE // 8 + 1, SIZE // 8 + 1))
+    level *= 1.0 + 0.12 * np.kron(texture, np.ones((8, 8)))[:SIZE, :SIZE]
+    holes = np.hypot((rows % 24) - 12, (cols % 24) - 12) < 4.0
+    level[holes] *= 0.15
+    block = (rows > 20) & (rows < 120) & (cols > 180) & (cols < 240)
+    level[block] = 0.5
+    return level[..., None] * np.array([1.0, 0.97, 0.9])
+
+
+def _photo(scene: Scene, surround: np.ndarray | None, disc_level: float = 0.012, seed: int = 0) -> np.ndarray:
+    """The rendered rainbow, exposed, on a dark disc inside ``surround`` (None: black), noisy."""
+    cube = render_cube(scene, supersample=1)
+    image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
+    disc = np.zeros(SIZE * SIZE, bool)
+    disc[pixel_diffraction(scene).index] = True
+    disc = disc.reshape(SIZE, SIZE)
+    base = np.zeros((SIZE, SIZE, 3)) if surround is None else surround.copy()
+    base[disc] = disc_level * np.array([1.0, 0.95, 0.9])
+    return np.minimum(photo.add_noise(image + base, 0.01, np.random.default_rng(seed)), 1.0)
+
+
+def _truth(scene: Scene) -> tuple[Ellipse, float, float]:
+    rel = relative_pose.relative_pose(scene)
+    focal = scene.preset.camera.focal_px
+    return project_circle(rel.disc_centre_mm, rel.disc_normal, RIM_MM, focal, (SIZE, SIZE)), focal, rel.distance_mm
+
+
+@pytest.fixture(scope="module")
+def rendered():
+    scene = _scene(Pose(tilt_deg=(2.0, 1.0), camera_rotation_deg=(1.0, 0.0)))
+    return scene, _photo(scene, _table(np.random.default_rng(1))), _photo(scene, None, disc_level=0.0)
+
+
+def test_a_dark_disc_on_a_lit_table_shows_its_outline(rendered):
+    """Found from edges (the surround is lit on one side, dark on the other, with holes and a
+    block): centre within 1.5 px, semi-axes within 1.5 % of the rim's exact image; and the focal
+    length it gives with the true distance within 2 %."""
+    scene, on_table, _ = rendered
+    truth, focal, distance = _truth(scene)
+    found = disc_ellipse(on_table)
+    assert found is not None and not found.lit and found.image_size == (SIZE, SIZE)
+    assert math.dist(found.centre_px, truth.centre_px) < 1.5
+    assert found.major_px == pytest.approx(truth.major_px, rel=0.015)
+    assert found.minor_px == pytest.approx(truth.minor_px, rel=0.015)
+    assert abs(math.remainder(found.angle - truth.angle, math.pi)) < math.radians(3.0)
+    assert focal_px_from_outline(found, RIM_MM, distance) == pytest.approx(focal, rel=0.02)
+
+
+@pytest.mark.parametrize("tilt, turn, pool, zoom", [((5.0, -3.0), (2.0, 1.0), (0.2, 0.7), 1.6),
+                                                  ((-4.0, 4.0), (-3.0, 2.0), (0.7, 0.2), 1.4)])
+def test_other_poses_and_lights(tilt, turn, pool, zoom):
+    """The disc tilted and off-centre, the light pool on either side: the same accuracy."""
+    scene = _scene(Pose(tilt_deg=tilt, camera_rotation_deg=turn), zoom)
+    truth, focal, distance = _truth(scene)
+    found = disc_ellipse(_photo(scene, _table(np.random.default_rng(5), pool), seed=5))
+    assert found is not None and not found.lit
+    assert math.dist(found.centre_px, truth.centre_px) < 1.0
+    assert found.major_px == pytest.approx(truth.major_px, rel=0.01)
+    assert found.minor_px == pytest.approx(truth.minor_px, rel=0.01)
+    assert focal_px_from_outline(found, RIM_MM, distance) == pytest.approx(focal, rel=0.01)
+
+
+def test_no_outline_without_a_lit_surround_or_without_a_disc(rendered):
+    """The rainbow alone (two streaks on black) is no disc, lit or dark; a lit table with holes
+    and a block but no disc holds no dark one (its round pool of light is what the lit finder
+    would take for a lit disc); the dark finder is only asked when no lit disc shows."""
+    scene, on_table, rainbow_only = rendered
+    assert disc_ellipse(rainbow_only) is None
+    for seed, pool in ((2, (0.25, 0.3)), (3, (0.5, 0.5)), (4, (0.8, 0.6))):
+        assert dark_disc_outline(box_downsample(_table(np.random.default_rng(seed), pool), 2)) is None
+    assert disc_ellipse(on_table, dark=False) is None
+
+
+def test_a_lit_disc_is_still_found_by_its_mask(rendered):
+    """Room light on the disc, a dark surround: the moments' answer, flagged lit."""
+    scene, _, rainbow_only = rendered
+    lit = rainbow_only.copy()
+    disc = np.zeros(SIZE * SIZE, bool)
+    disc[pixel_diffraction(scene).index] = True
+    lit[disc.reshape(SIZE, SIZE)] += 0.05
+    found = disc_ellipse(lit)
+    assert found is not None and found.lit
+    truth, _, _ = _truth(scene)
+    assert found.major_px == pytest.approx(truth.major_px, rel=0.03)
+
+
+@settings(max_examples=60, deadline=None)
+@given(focal=st.floats(300.0, 6000.0), distance=st.floats(120.0, 900.0), off=st.tuples(*[st.floats(-0.35, 0.35)] * 2),
+       tilt=st.floats(0.0, 60.0), turn=st.floats(0.0, 360.0))
+def test_focal_from_outline_inverts_the_projection(focal, distance, off, tilt, turn):
+    """A 60 mm circle anywhere in a 750 × 625 frame, turned up to 60°: its image gives back the
+    focal length (1e-6) and the distance; f·R/D would miss the major semi-axis off-centre."""
+    direction = np.array([off[0], off[1], -1.0])
+    direction /= np.linalg.norm(direction)
+    axis = np.cross(direction, [math.cos(math.radians(turn)), math.sin(math.radians(turn)), 0.0])
+    axis /= np.linalg.norm(axis)
+    t = math.radians(tilt)
+    normal = -direction * math.cos(t) + np.cross(axis, -direction) * math.sin(t)
+    image = project_circle(direction * distance, normal, RIM_MM, focal, (750, 625))
+    if image.minor_px < 2.0:
+        return
+    assert circle_distance_mm(image, RIM_MM, focal) == pytest.approx(distance, rel=1e-6)
+    assert focal_px_from_outline(image, RIM_MM, distance) == pytest.approx(focal, rel=1e-6)
+
+
+def test_off_centre_the_exact_focal_differs_from_the_rule_of_thumb():
+    """Kim's frames are cropped: the disc is not where the lens's axis meets the image. A disc
+    at 30 % of the frame's width off-centre, 30° turned: a·D/R is 5 % off, the exact one is not."""
+    focal, distance = 900.0, 250.0
+    direction = np.array([0.3 * 750 / focal, 0.0, -1.0])
+    direction /= np.linalg.norm(direction)
+    t = math.radians(30.0)
+    normal = -direction * math.cos(t) + np.array([0.0, math.sin(t), 0.0])
+    image = project_circle(direction * distance, normal, RIM_MM, focal, (750, 625))
+    assert abs(image.major_px * distance / RIM_MM / focal - 1.0) > 0.05
+    assert focal_px_from_outline(image, RIM_MM, distance) == pytest.approx(focal, rel=1e-9)
+
+
+def test_the_image_size_is_needed_and_nonsense_is_refused():
+    loose = Ellipse((300.0, 380.0), 230.0, 180.0, 0.1)
+    with pytest.raises(ValueError, match="image size"):
+        focal_px_from_outline(loose, RIM_MM, 250.0)
+    assert focal_px_from_outline(loose, RIM_MM, 250.0, image_size=(750, 625)) > 0
+    with pytest.raises(ValueError):
+        focal_px_from_outline(replace(loose, image_size=(750, 625)), RIM_MM, 30.0)  # inside the disc
+    assert rim_ellipse.WORK_SIDE == 256  # the outline is looked for at this size, both ways
