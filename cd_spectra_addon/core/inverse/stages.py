@@ -33,8 +33,9 @@ from numpy.typing import NDArray
 from ..readout.ambient import dark_offset, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration
 from ..spectra.cameras import CameraProfile
+from ..spectra.grid import VISIBLE_NM
 from ..scene.capture import Preset, Scene
-from ..planning.capture_advice import advice_for_photo
+from ..planning.capture_advice import advice_for_photo, coverage_advice
 from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..readout.forward_matrix import bin_response, feature_matrix
@@ -49,6 +50,9 @@ from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
 MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum is worth solving for
+# Of 400–700 nm the first order must show this much on the tracks: with less, the spectrum is
+# mostly the prior's guess (a photo of 2nd–5th orders, a first order half in the infrared).
+MIN_COVERAGE_NM = 150.0
 MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
 # quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
@@ -57,7 +61,7 @@ DIM_LEVEL_8BIT = 0.01
 
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "fuse",
            "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "focal_px_for", "focal_px_of",
-           "physics_spd", "network_inputs", "MIN_RAINBOW_CONTRAST", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "physics_spd", "network_inputs", "covered_nm", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -187,6 +191,37 @@ def pose_photo(
                  fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3})
 
 
+def covered_nm(readout: Readout) -> list[tuple[float, float]]:
+    """The stretches of 400–700 nm that first-order pixels on the tracks show (bin edges, nm)."""
+    step = float(readout.lambda_nm[1] - readout.lambda_nm[0])
+    seen = (readout.weight > 0) & (readout.lambda_nm >= VISIBLE_NM[0]) & (readout.lambda_nm <= VISIBLE_NM[1])
+    out: list[tuple[float, float]] = []
+    for lam in readout.lambda_nm[seen]:
+        lo, hi = max(float(lam) - step / 2, VISIBLE_NM[0]), min(float(lam) + step / 2, VISIBLE_NM[1])
+        if out and lo <= out[-1][1] + 1e-6:
+            out[-1] = (out[-1][0], hi)
+        else:
+            out.append((lo, hi))
+    return out
+
+
+def _coverage_refusal(name: str, fit: PoseFit, stretches: list[tuple[float, float]], advice: str) -> str:
+    """The message for a photo whose rainbow is found but shows too little of 400–700 nm."""
+    total = sum(b - a for a, b in stretches)
+    held = ("only " + ", ".join(f"{a:.0f}–{b:.0f} nm" for a, b in stretches)) if stretches else "none of 400–700 nm"
+    seen = ""
+    if fit.line_orders and 1 not in fit.line_orders:
+        seen = f"; its lines are the disc's {_ordinals(fit.line_orders)} order{'s' if len(fit.line_orders) > 1 else ''}"
+    return (f"{name}: the rainbow is found but its first order on the disc's tracks holds {held} "
+            f"({total:.0f} nm; a reading needs {MIN_COVERAGE_NM:.0f} nm of 400–700){seen} — {advice}")
+
+
+def _ordinals(orders: Sequence[int]) -> str:
+    names = {1: "1st", 2: "2nd", 3: "3rd"}
+    words = [names.get(m, f"{m}th") for m in orders]
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
 def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
     """The readout stage (see the module doc). ``pixels`` are the fitted scene's per-pixel
     diffraction coordinates when the caller already has them (a cache: they depend on the scene
@@ -203,14 +238,19 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
                                lobe.pixels if isinstance(lobe, LobePixels) else lobe)
     t2 = time.perf_counter()
     readout = _with_gains(measured, posed.calibration)
-    if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
+    found = fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST or fit.lines_pinned
+    stretches = covered_nm(measured)
+    if found and sum(b - a for a, b in stretches) < MIN_COVERAGE_NM:
+        name = Path(image.path).name or "the photo"
+        raise NoDiscError(_coverage_refusal(name, fit, stretches, coverage_advice(posed.preset, scene)))
+    if int(np.sum(readout.valid)) < MIN_VALID_BINS or not found:
         name = Path(image.path).name or "the photo"
         hint = ""
         if posed.clipped_share > 0.2:
             hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        advice = advice_for_photo(posed.preset, scene, fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST, rgb, excluded,
+        advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
     response = bin_response(scene, readout)
