@@ -43,6 +43,7 @@ from ..photo.images import ExifInfo, LinearImage
 from ..spectrum.model import SpectralModel, model_inputs
 from ..pose.fit import fit_pose
 from ..pose.result import PoseFit
+from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.solve import GaussianPrior, band_blend, fused_solve, physics_solve, prior_solve
 from ..pose.starts import CHEAP, ESCALATIONS
@@ -61,7 +62,7 @@ DIM_LEVEL_8BIT = 0.01
 
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "fuse",
            "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "focal_px_for", "focal_px_of",
-           "physics_spd", "network_inputs", "covered_nm", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "physics_spd", "network_inputs", "covered_nm", "focal_px_from_photo", "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -77,7 +78,7 @@ class Posed:
     excluded: NDArray[np.bool_]  # clipped or not-a-number pixels
     clipped_share: float
     focal_px: float
-    focal_source: str  # "exif", "exif-35mm", "preset" or "given"
+    focal_source: str  # "exif", "exif-35mm", "outline", "preset" or "given"
     fit: PoseFit
     timing_ms: dict[str, float] = field(default_factory=dict)
 
@@ -145,6 +146,45 @@ def focal_px_of(exif: ExifInfo, width: int, scale: float, displayed_size: tuple[
     return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
 
 
+# The outline's focal length is believed within this factor of the preset's lens (a phone's 26 mm
+# against a 50 mm or a 13 mm lens); beyond it the outline found is not the disc's.
+OUTLINE_FOCAL_RANGE = 3.0
+
+
+def focal_px_from_photo(image: LinearImage, preset: Preset, preset_focal_px: float) -> tuple[float, str]:
+    """A photo without a focal length in its EXIF (a GIF, a screenshot, a stripped file): from the
+    disc's outline where it shows and the preset's camera distance ("outline"), else the preset's
+    lens ("preset")."""
+    rgb = np.asarray(image.rgb, dtype=np.float64)
+    outline = disc_ellipse(rgb, np.asarray(image.saturated) | np.asarray(image.invalid))
+    if outline is None:
+        return preset_focal_px, "preset"
+    try:
+        focal = focal_px_from_outline(outline, preset.disc.rim_radius_mm, preset.camera.distance_mm,
+                                      (rgb.shape[1], rgb.shape[0]))
+    except ValueError:
+        return preset_focal_px, "preset"
+    if not (preset_focal_px / OUTLINE_FOCAL_RANGE <= focal <= preset_focal_px * OUTLINE_FOCAL_RANGE):
+        return preset_focal_px, "preset"
+    return focal, "outline"
+
+
+def series_focal_px(images: Sequence[LinearImage], preset: Preset) -> float | None:
+    """One focal length for photos taken with one lens and zoom (the frames of a GIF or a video,
+    a burst) that carry none in their EXIF: the median of the disc outline's focal length over the
+    frames where the outline shows (:func:`focal_px_from_photo`); None where it shows in none.
+    A frame whose disc edge is dark against a dark table then borrows its neighbours' lens."""
+    found = []
+    for image in images:
+        preset_focal, source = focal_px_for(image, preset)
+        if source != "preset":
+            continue
+        focal, source = focal_px_from_photo(image, preset, preset_focal)
+        if source == "outline":
+            found.append(focal * image.scale)  # in the file's pixels: frames may load at other scales
+    return float(np.median(found)) if found else None
+
+
 def _with_gains(readout: Readout, calibration: Calibration | None) -> Readout:
     if calibration is None:
         return readout
@@ -179,6 +219,8 @@ def pose_photo(
     source = "given"
     if focal_px is None:
         focal_px, source = focal_px_for(image, preset)
+        if source == "preset":
+            focal_px, source = focal_px_from_photo(image, preset, focal_px)
     rgb = np.asarray(image.rgb, dtype=np.float64)
     if calibration is not None and calibration.pipeline is not None:
         rgb = calibration.pipeline.to_native(rgb)  # undo the camera's matrix and tone curve (JPEG/HEIC)
