@@ -25,7 +25,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_capture_pose.py tests/test_general_pose.py tests/test_pose_recovery.py tests/test_disc_window.py tests/test_camera_fit.py \
 	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses eval-real bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -105,6 +105,12 @@ POSE_LAMPS ?= 12
 POSE_JOBS ?= 1
 eval-poses: setup
 	$(PY) -m training.evaluation.pose_errors --lamps $(POSE_LAMPS) --jobs $(POSE_JOBS) --out bench/pose_errors.md
+
+# Real photographs (Kim 2023's CD and DVD series): give the folder holding cd1.gif and dvd1.gif
+# (github.com/yongwookkkkim/Diffraction-on-Optical-Disks, unwritten/; no licence, so never in the repo).
+eval-real: setup
+	@test -n "$(KIM_DIR)" || { echo "make eval-real KIM_DIR=/path/to/folder/with/cd1.gif+dvd1.gif"; exit 2; }
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.real_photos --kim-dir "$(KIM_DIR)" --out bench/real_photos.md
 
 bench: setup
 	$(PY) -m training.evaluation.bench --out bench/bench.md

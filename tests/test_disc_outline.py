@@ -15,6 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from cd_spectra_addon.core.inverse.stages import focal_px_from_photo, series_focal_px
+from cd_spectra_addon.core.photo.images import ExifInfo, LinearImage
 from cd_spectra_addon.core.photo.resample import box_downsample
 from cd_spectra_addon.core.pose import rim_ellipse
 from cd_spectra_addon.core.pose.edge_outline import dark_disc_outline
@@ -176,3 +178,37 @@ def test_the_image_size_is_needed_and_nonsense_is_refused():
     with pytest.raises(ValueError):
         focal_px_from_outline(replace(loose, image_size=(750, 625)), RIM_MM, 30.0)  # inside the disc
     assert rim_ellipse.WORK_SIDE == 256  # the outline is looked for at this size, both ways
+
+
+def _linear(rgb: np.ndarray, scale: float = 1.0) -> LinearImage:
+    return LinearImage(rgb=rgb.astype(np.float32), saturated=rgb.max(axis=2) >= 1.0,
+                       invalid=np.zeros(rgb.shape[:2], bool), scale=scale, original_size=(SIZE, SIZE),
+                       encoding="linear-16", exif=ExifInfo(), path="frame.png")
+
+
+def test_a_photo_without_exif_takes_its_lens_from_the_outline(rendered):
+    """No focal length in the EXIF: the estimate's pose stage takes it from the disc's outline and
+    the preset's camera distance (within 3 % of the true lens, where the preset's own lens is 1.6×
+    off); where no outline shows (a black surround), the preset's lens, said so."""
+    scene, on_table, on_black = rendered
+    _, focal, _ = _truth(scene)
+    preset = load_preset("tripod-oblique").with_image_size(SIZE)
+    preset_focal = preset.camera.focal_px
+    assert abs(preset_focal / focal - 1.0) > 0.3  # the preset's lens is not the photo's
+    found, source = focal_px_from_photo(_linear(on_table), preset, preset_focal)
+    assert source == "outline" and found == pytest.approx(focal, rel=0.03)
+    assert focal_px_from_photo(_linear(on_black), preset, preset_focal) == (preset_focal, "preset")
+
+
+def test_frames_of_one_lens_share_the_focal_length_their_outlines_give(rendered):
+    """The frames of a GIF: the frames without a visible outline borrow the median of the others',
+    in the file's pixels (a frame loaded at half scale reports the same lens); none where no
+    frame shows its outline."""
+    scene, on_table, on_black = rendered
+    _, focal, _ = _truth(scene)
+    preset = load_preset("tripod-oblique").with_image_size(SIZE)
+    frames = [_linear(on_black), _linear(on_table), _linear(on_black)]
+    assert series_focal_px(frames, preset) == pytest.approx(focal, rel=0.03)
+    half = _linear(box_downsample(on_table, 2), scale=2.0)
+    assert series_focal_px([half], preset) == pytest.approx(focal, rel=0.03)
+    assert series_focal_px([_linear(on_black)], preset) is None

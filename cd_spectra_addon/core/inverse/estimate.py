@@ -227,6 +227,10 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     if focal_source == "preset":
         warnings.append("no focal length in the photo's EXIF: assuming the preset's field of view")
         score *= 0.8
+    elif focal_source == "outline":
+        warnings.append("no focal length in the photo's EXIF: taken from the disc's outline and the preset's "
+                        "camera distance")
+        score *= 0.9
     if image is not None and image.is_grey:
         warnings.append("the photo is greyscale: colour is what separates wavelengths — use the colour photo")
         score *= 0.3

@@ -33,8 +33,9 @@ from numpy.typing import NDArray
 from ..readout.ambient import dark_offset, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration
 from ..spectra.cameras import CameraProfile
+from ..spectra.grid import VISIBLE_NM
 from ..scene.capture import Preset, Scene
-from ..planning.capture_advice import advice_for_photo
+from ..planning.capture_advice import advice_for_photo, coverage_advice
 from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..readout.forward_matrix import bin_response, feature_matrix
@@ -42,6 +43,7 @@ from ..photo.images import ExifInfo, LinearImage
 from ..spectrum.model import SpectralModel, model_inputs
 from ..pose.fit import fit_pose
 from ..pose.result import PoseFit
+from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.solve import GaussianPrior, band_blend, fused_solve, physics_solve, prior_solve
 from ..pose.starts import CHEAP, ESCALATIONS
@@ -49,6 +51,9 @@ from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
 MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum is worth solving for
+# Of 400–700 nm the first order must show this much on the tracks: with less, the spectrum is
+# mostly the prior's guess (a photo of 2nd–5th orders, a first order half in the infrared).
+MIN_COVERAGE_NM = 150.0
 MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
 # quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
@@ -57,7 +62,7 @@ DIM_LEVEL_8BIT = 0.01
 
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "fuse",
            "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "focal_px_for", "focal_px_of",
-           "physics_spd", "network_inputs", "MIN_RAINBOW_CONTRAST", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "physics_spd", "network_inputs", "covered_nm", "focal_px_from_photo", "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -73,7 +78,7 @@ class Posed:
     excluded: NDArray[np.bool_]  # clipped or not-a-number pixels
     clipped_share: float
     focal_px: float
-    focal_source: str  # "exif", "exif-35mm", "preset" or "given"
+    focal_source: str  # "exif", "exif-35mm", "outline", "preset" or "given"
     fit: PoseFit
     timing_ms: dict[str, float] = field(default_factory=dict)
 
@@ -141,6 +146,45 @@ def focal_px_of(exif: ExifInfo, width: int, scale: float, displayed_size: tuple[
     return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
 
 
+# The outline's focal length is believed within this factor of the preset's lens (a phone's 26 mm
+# against a 50 mm or a 13 mm lens); beyond it the outline found is not the disc's.
+OUTLINE_FOCAL_RANGE = 3.0
+
+
+def focal_px_from_photo(image: LinearImage, preset: Preset, preset_focal_px: float) -> tuple[float, str]:
+    """A photo without a focal length in its EXIF (a GIF, a screenshot, a stripped file): from the
+    disc's outline where it shows and the preset's camera distance ("outline"), else the preset's
+    lens ("preset")."""
+    rgb = np.asarray(image.rgb, dtype=np.float64)
+    outline = disc_ellipse(rgb, np.asarray(image.saturated) | np.asarray(image.invalid))
+    if outline is None:
+        return preset_focal_px, "preset"
+    try:
+        focal = focal_px_from_outline(outline, preset.disc.rim_radius_mm, preset.camera.distance_mm,
+                                      (rgb.shape[1], rgb.shape[0]))
+    except ValueError:
+        return preset_focal_px, "preset"
+    if not (preset_focal_px / OUTLINE_FOCAL_RANGE <= focal <= preset_focal_px * OUTLINE_FOCAL_RANGE):
+        return preset_focal_px, "preset"
+    return focal, "outline"
+
+
+def series_focal_px(images: Sequence[LinearImage], preset: Preset) -> float | None:
+    """One focal length for photos taken with one lens and zoom (the frames of a GIF or a video,
+    a burst) that carry none in their EXIF: the median of the disc outline's focal length over the
+    frames where the outline shows (:func:`focal_px_from_photo`); None where it shows in none.
+    A frame whose disc edge is dark against a dark table then borrows its neighbours' lens."""
+    found = []
+    for image in images:
+        preset_focal, source = focal_px_for(image, preset)
+        if source != "preset":
+            continue
+        focal, source = focal_px_from_photo(image, preset, preset_focal)
+        if source == "outline":
+            found.append(focal * image.scale)  # in the file's pixels: frames may load at other scales
+    return float(np.median(found)) if found else None
+
+
 def _with_gains(readout: Readout, calibration: Calibration | None) -> Readout:
     if calibration is None:
         return readout
@@ -175,6 +219,8 @@ def pose_photo(
     source = "given"
     if focal_px is None:
         focal_px, source = focal_px_for(image, preset)
+        if source == "preset":
+            focal_px, source = focal_px_from_photo(image, preset, focal_px)
     rgb = np.asarray(image.rgb, dtype=np.float64)
     if calibration is not None and calibration.pipeline is not None:
         rgb = calibration.pipeline.to_native(rgb)  # undo the camera's matrix and tone curve (JPEG/HEIC)
@@ -185,6 +231,37 @@ def pose_photo(
     return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
                  fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3})
+
+
+def covered_nm(readout: Readout) -> list[tuple[float, float]]:
+    """The stretches of 400–700 nm that first-order pixels on the tracks show (bin edges, nm)."""
+    step = float(readout.lambda_nm[1] - readout.lambda_nm[0])
+    seen = (readout.weight > 0) & (readout.lambda_nm >= VISIBLE_NM[0]) & (readout.lambda_nm <= VISIBLE_NM[1])
+    out: list[tuple[float, float]] = []
+    for lam in readout.lambda_nm[seen]:
+        lo, hi = max(float(lam) - step / 2, VISIBLE_NM[0]), min(float(lam) + step / 2, VISIBLE_NM[1])
+        if out and lo <= out[-1][1] + 1e-6:
+            out[-1] = (out[-1][0], hi)
+        else:
+            out.append((lo, hi))
+    return out
+
+
+def _coverage_refusal(name: str, fit: PoseFit, stretches: list[tuple[float, float]], advice: str) -> str:
+    """The message for a photo whose rainbow is found but shows too little of 400–700 nm."""
+    total = sum(b - a for a, b in stretches)
+    held = ("only " + ", ".join(f"{a:.0f}–{b:.0f} nm" for a, b in stretches)) if stretches else "none of 400–700 nm"
+    seen = ""
+    if fit.line_orders and 1 not in fit.line_orders:
+        seen = f"; its lines are the disc's {_ordinals(fit.line_orders)} order{'s' if len(fit.line_orders) > 1 else ''}"
+    return (f"{name}: the rainbow is found but its first order on the disc's tracks holds {held} "
+            f"({total:.0f} nm; a reading needs {MIN_COVERAGE_NM:.0f} nm of 400–700){seen} — {advice}")
+
+
+def _ordinals(orders: Sequence[int]) -> str:
+    names = {1: "1st", 2: "2nd", 3: "3rd"}
+    words = [names.get(m, f"{m}th") for m in orders]
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
 def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
@@ -203,14 +280,19 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None) -> Reading:
                                lobe.pixels if isinstance(lobe, LobePixels) else lobe)
     t2 = time.perf_counter()
     readout = _with_gains(measured, posed.calibration)
-    if int(np.sum(readout.valid)) < MIN_VALID_BINS or fit.rainbow_contrast < MIN_RAINBOW_CONTRAST:
+    found = fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST or fit.lines_pinned
+    stretches = covered_nm(measured)
+    if found and sum(b - a for a, b in stretches) < MIN_COVERAGE_NM:
+        name = Path(image.path).name or "the photo"
+        raise NoDiscError(_coverage_refusal(name, fit, stretches, coverage_advice(posed.preset, scene)))
+    if int(np.sum(readout.valid)) < MIN_VALID_BINS or not found:
         name = Path(image.path).name or "the photo"
         hint = ""
         if posed.clipped_share > 0.2:
             hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        advice = advice_for_photo(posed.preset, scene, fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST, rgb, excluded,
+        advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
     response = bin_response(scene, readout)

@@ -33,10 +33,12 @@ from numpy.typing import NDArray
 
 from ..numerics.least_squares import levenberg_marquardt
 from ..photo.resample import box_downsample, channel_sum
-from ..scene.capture import Preset
+from ..scene.capture import Disc, Preset
 from ..scene.kernel import camera_rays, diffraction_along, project
-from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
+from ..scene.relative_pose import (N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, ray_diffraction,
+                                   scene_from_relative)
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
+from .lines import keeps_lines, line_agreement
 from .rim_ellipse import disc_base, disc_ellipse
 from .self_consistency import ProfileGrid, SelfConsistency, footprint_v_span
 from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
@@ -56,6 +58,7 @@ TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit eac
 # an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
 FREE = np.array([0, 1, 2, 3, 4, 5, 7])
 UNTILTED = np.array([0, 1, 4, 5, 7])  # the same without the disc's tilt
+LOBE_ONLY = np.array([7])  # a capture the photo's thin lines pin (:mod:`.lines`): only the lobe's size
 LM_ITERATIONS = (30, 12)  # per stage: most of a fit's progress is in its first steps
 LM_TOL = (1e-4, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
 PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
@@ -65,8 +68,25 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # first alone it did not: from the preset, LM can end in a neighbouring minimum that explains the
 # photo nearly as well — cd-default, camera moved 2 mm: twice the true cost, disc centre 2 px off —
 # and the rings' own centre, one tier on, starts in the right one.)
-TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours",), ESCALATIONS)
+TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lines"), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
+# The fit is judged on the pixels the preset's capture puts on the disc's grating, widened by this
+# much (a capture the fit may still reach: camera and lamp some mm off, the disc a few degrees
+# tilted): a lit table, a lamp in the frame or objects around the disc are not the disc's to
+# explain, and a wide lobe over them must not look like a rainbow. One region for every start:
+# each start's own region (tried) made their costs incomparable, and on tripod-oblique with the
+# disc tilted 3° the fit then preferred a capture 5° off (MAE 0.03 → 0.23).
+DISC_MARGIN_MM = 15.0
+# A photo whose best fit leaves more than this of its energy unexplained is not one the
+# self-consistency reads alone (the simulator's photos: < 0.04 with every pose error of
+# bench/pose_errors.md); there the photo's thin lines are sought (:mod:`.lines`) and, where they
+# pin a capture, rule.
+EXPLAINED_COST = 0.05
+
+
+def lines_rule(fits: "list[_Fitted]") -> bool:
+    """The fit's answer is the best capture the photo's lines pin (see EXPLAINED_COST)."""
+    return bool(fits) and fits[0].cost > EXPLAINED_COST and any(f.start.held for f in fits)
 _DEBUG = bool(os.environ.get("CDS_POSE_DEBUG"))
 
 
@@ -109,12 +129,26 @@ class _Level:
         return footprint_v_span(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, f, self.full_size,
                                 self.focal_px, rel)
 
-    def sample(self, count: int) -> NDArray[np.int64]:
-        """Flat indices of up to ``count`` pixels (sorted): the brightest half, where the rainbow
-        is, and a fixed random sample of the rest, where the pose must predict darkness; clipped
-        pixels never. A partial sort: a full one of a 1 MP photo took 60 ms per call."""
+    def on_disc(self, rel: RelativePose, disc: Disc) -> NDArray[np.bool_]:
+        """Flat mask of the level's pixels that the capture ``rel`` puts on the disc's grating,
+        widened by DISC_MARGIN_MM."""
+        height, width = self.rgb.shape[:2]
+        f = self.factor
+        rows = np.repeat(np.arange(height) * f + (f - 1) / 2.0, width)
+        cols = np.tile(np.arange(width) * f + (f - 1) / 2.0, height)
+        d = ray_diffraction(camera_rays(rows, cols, self.full_size, self.focal_px), rel, disc.pitch_um)
+        return d.hit & (d.radius_mm >= disc.grating_r_min_mm - DISC_MARGIN_MM) & \
+            (d.radius_mm <= disc.grating_r_max_mm + DISC_MARGIN_MM)
+
+    def sample(self, count: int, region: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
+        """Flat indices of up to ``count`` pixels (sorted) of ``region`` (all where None): the
+        brightest half, where the rainbow is, and a fixed random sample of the rest, where the
+        pose must predict darkness; clipped pixels never. A partial sort: a full one of a 1 MP
+        photo took 60 ms per call."""
         lum = channel_sum(self.rgb).ravel()
         usable = np.isfinite(lum)
+        if region is not None:
+            usable &= region
         if self.saturated is not None:
             usable &= ~self.saturated.reshape(-1)
         n_usable = int(np.sum(usable))
@@ -142,8 +176,8 @@ class _Sample:
     spans: NDArray[np.float64] | None = None
 
     @classmethod
-    def of(cls, level: _Level, count: int) -> "_Sample":
-        index = level.sample(count)
+    def of(cls, level: _Level, count: int, region: NDArray[np.bool_] | None = None) -> "_Sample":
+        index = level.sample(count, region)
         return cls(level, index, level.rays(index))
 
     def v_span(self, rel: RelativePose) -> NDArray[np.float64]:
@@ -249,7 +283,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape
     size = (width, height)
-    outline = disc_ellipse(rgb, saturated)
+    outline = disc_ellipse(rgb, saturated, dark=False)
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
         rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
@@ -258,23 +292,45 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     fine = _Level.of(rgb, saturated, 1, focal_px)
     clock.lap("levels")
     ctx = StartContext(rgb, saturated, preset, float(focal_px), sensitivities, outline)
-    samples = {"coarse": _Sample.of(coarse, COARSE_PIXELS)}
+    levels = {"coarse": (coarse, COARSE_PIXELS), "fine": (fine, FINE_PIXELS)}
+    samples: dict[str, _Sample] = {}
+
+    def sample_for(level: str) -> _Sample:
+        """The level's pixel sample, on the disc as the preset places it (one for every start)."""
+        if level not in samples:
+            lvl, count = levels[level]
+            samples[level] = _Sample.of(lvl, count, lvl.on_disc(ctx.nominal(), preset.disc))
+        return samples[level]
+
     grids: dict[tuple[float, float, float], ProfileGrid] = {}
     evals = 0
 
     def problem(start: RelativePose, level: str = "coarse", stage: tuple[float, float] = STAGES[0]) -> _Problem:
-        sample = samples[level]
+        sample = sample_for(level)
         blur = round(colour_blur_nm(preset, start.lobe_sigma, sample.level.level_focal), 1)
         key = (*stage, blur)
         if key not in grids:
             grids[key] = ProfileGrid.with_camera(*GRID_NM, stage[0], sensitivities, blur, stage[1])
         return _Problem(sample, start, preset, grids[key])
 
+    def held_fit(p: _Problem, base: RelativePose, x: NDArray[np.float64], stage: int
+                 ) -> tuple[NDArray[np.float64], float]:
+        """LM from a capture the photo's lines pin: every parameter free, kept only where the
+        lines stay on its curve (the self-consistency may slide the wavelengths along them, and
+        a wide lobe over the glow around them must not pull the curve off); else the lobe's
+        size alone."""
+        y, cost = p.fit(x, LM_ITERATIONS[stage], LM_TOL[stage], FREE)
+        if ctx.ridges is not None and keeps_lines(ctx.ridges, apply_params(base, y), size, focal_px, preset.disc):
+            return y, cost
+        return p.fit(x, LM_ITERATIONS[stage], LM_TOL[stage], LOBE_ONLY)
+
     fits: list[_Fitted] = []
     visited: list[tuple[RelativePose, float]] = []  # where LM started (cost ∞) and ended (its cost)
     oblique = not near_axis(preset)
     for k, tier in enumerate(TIERS):
         names = [name for name in tier if name in strategies or name in escalations]
+        if fits and fits[0].cost <= EXPLAINED_COST:
+            names = [name for name in names if name != "lines"]  # the self-consistency has its rainbow
         if not names:
             continue
         escalating = any(name in ESCALATIONS for name in names)
@@ -308,6 +364,11 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
             tried += 1
             p = problem(s.pose)
             x = s.params
+            if s.held:
+                x, cost = held_fit(p, s.pose, x, 0)
+                fits.append(_Fitted(cost, s, x))
+                visited.append((fits[-1].capture, cost))
+                continue
             if not oblique and not escalating:
                 # A camera above the disc: first as the preset draws it (disc level, camera looking
                 # down, lamp at its height), then with the tilt free. A tilted disc and a lamp moved
@@ -326,20 +387,28 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         # valley followed: there the colour pins the wavelength axis only to a comb of teeth.
         if k > 0 and fits and fits[0].cost <= GOOD_COST and not (oblique and "colours" in tier):
             break
+        if lines_rule(fits):
+            break  # the photo's lines pin the capture: nothing the escalations find can beat them
     evals += ctx.evaluations
-    samples["fine"] = _Sample.of(fine, FINE_PIXELS)
-    finalists = fits[:1] + [f for f in fits[1:] if f.start.strategy == "glint-line"][:1]
+    held = [f for f in fits if f.start.held]
+    # Where the photo's thin lines pin a capture and nothing explains the photo, the lines are the
+    # answer whatever the self-consistency prefers: a lobe widened over the glow around them
+    # explains more energy, and is wrong.
+    finalists = held[:1] if lines_rule(fits) else fits[:1] + [f for f in fits[1:] if f.start.strategy == "glint-line"][:1]
     finished = []
     for f in finalists:
         p = problem(f.capture, "fine", STAGES[1])
-        x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1], LM_TOL[1])
+        if f.start.held:
+            x, cost = held_fit(p, f.capture, np.zeros(N_PARAMS), 1)
+        else:
+            x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1], LM_TOL[1])
         evals += p.evaluations
-        finished.append(_Fitted(cost, Start(f.start.strategy, f.capture), x))
+        finished.append(_Fitted(cost, Start(f.start.strategy, f.capture, held=f.start.held), x))
     best = min(finished, key=lambda fit: fit.cost)
     clock.lap("fine")
     rel = best.capture
     scene = scene_from_relative(rel, preset, size, focal_px)
-    report = samples["fine"].index
+    report = sample_for("fine").index
     total = float(np.sum(fine.flat[report] ** 2))
     colour = None if sensitivities is None else \
         expected_colours(sensitivities, FIT_STEP_NM, colour_blur_nm(preset, rel.lobe_sigma, focal_px))
@@ -348,10 +417,14 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     centre = tuple(float(v) for v in project(rel.disc_centre_mm, size, focal_px))
     glint = mirror_point(rel)
     ring = tuple(float(v) for v in project(glint, size, focal_px)) if glint is not None else centre
+    lines = None if ctx.ridges is None else line_agreement(ctx.ridges, rel, size, focal_px, preset.disc)
     clock.lap("report")
     return PoseFit(center_px=centre, ring_center_px=ring, lobe_sigma=float(rel.lobe_sigma), focal_px=float(focal_px),
                    distance_mm=rel.distance_mm, residual=value, evaluations=evals, null_residual=null,
-                   known_scene=scene, timing_ms=clock.laps(), strategy=best.start.strategy)
+                   known_scene=scene, timing_ms=clock.laps(), strategy=best.start.strategy,
+                   line_share=0.0 if lines is None else lines.share,
+                   line_offset_px=math.inf if lines is None else lines.median_px,
+                   line_orders=() if lines is None else lines.orders, lines_pinned=best.start.held)
 
 
 class _Clock:

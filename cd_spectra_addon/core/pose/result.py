@@ -42,6 +42,13 @@ class PoseFit:
     known_scene: Scene | None = None  # the fitted (or, for synthetic photos, the true) capture
     timing_ms: tuple[tuple[str, float], ...] = ()  # the fit's stages
     strategy: str = ""  # the start the fit came from
+    # The photo's thin lines (a small lamp), where it has them (:mod:`.lines`): the weighted share
+    # on the fitted curve, their median distance from it (px), the orders they show in 400–700
+    # nm, and whether they pinned the capture (then the self-consistency fitted only the lobe).
+    line_share: float = 0.0
+    line_offset_px: float = math.inf
+    line_orders: tuple[int, ...] = ()
+    lines_pinned: bool = False
 
     @classmethod
     def of_scene(cls, scene: Scene) -> "PoseFit":

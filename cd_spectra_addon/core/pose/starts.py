@@ -15,6 +15,9 @@ name, so an evaluation can run or leave out any of them by name and a test can c
   point, or as the disc centre.
 - ``glint``: where the zero-order glint is seen (clipped), the preset's capture with the disc
   tilted so that it mirrors the lamp there.
+- ``lines``: each of those moved until the curve where the disc sends light to the lens (v = 0,
+  every order) passes through the photo's thin bright lines (:mod:`.lines`): a small lamp's
+  lines are a few px wide and the self-consistency is flat a few px away from them.
 - ``colours``: each of those moved by the rainbow's own colours (:mod:`.streak_colours`): each
   bright pixel's hue names its λ₁, a smooth fit good from far away.
 - ``glint-line`` (escalation): where the zero-order glint is seen (clipped), captures that mirror
@@ -40,8 +43,10 @@ from ..scene.kernel import turn_between
 from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, near_axis,
                                    nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
                                    with_disc_centre_at, with_lamp_mirrored_at)
+from .lines import Ridges, line_fit, ridge_pixels
 from .rim_ellipse import Ellipse, circle_poses
-from .streak_colours import streak_fit
+from .result import colour_blur_nm
+from .streak_colours import colour_wavelengths, streak_fit
 
 __all__ = ["Start", "StartContext", "STRATEGIES", "CHEAP", "ESCALATIONS", "axis_of_arcs"]
 
@@ -68,6 +73,7 @@ class Start:
     strategy: str
     pose: RelativePose
     params: NDArray[np.float64] = field(default_factory=lambda: np.zeros(N_PARAMS))
+    held: bool = False  # the geometry is pinned by the photo's lines: the fit moves only the lobe's size
 
     @property
     def capture(self) -> RelativePose:
@@ -90,6 +96,7 @@ class StartContext:
     outline: Ellipse | None
     cost: Cost | None = None
     evaluations: int = 0
+    ridges: Ridges | None = None  # the photo's thin bright lines, found once (``lines``)
     found: list[Start] = field(default_factory=list)  # every start proposed so far
 
     @property
@@ -255,6 +262,26 @@ def colour_starts(ctx: StartContext) -> list[Start]:
         y, n = streak_fit(half, ctx.preset, ctx.focal_px / 2.0, s.pose, s.params, ctx.sensitivities, half_sat)
         ctx.evaluations += n
         out.append(Start(f"colours ({s.strategy})", s.pose, y))
+    return out
+
+
+def line_starts(ctx: StartContext) -> list[Start]:
+    """Every start found so far, moved onto the photo's thin lines (where it has them)."""
+    if ctx.ridges is None:
+        ctx.ridges = ridge_pixels(ctx.rgb, ctx.focal_px)
+    if ctx.ridges is None:
+        return []
+    colours = None
+    if ctx.sensitivities is not None:
+        blur = colour_blur_nm(ctx.preset, ctx.nominal().lobe_sigma, ctx.focal_px / ctx.ridges.step_px)
+        colours = colour_wavelengths(ctx.ridges.values, ctx.sensitivities, blur)
+    out = []
+    for s in list(ctx.found):
+        fit = line_fit(ctx.ridges, s.pose, s.params, ctx.size, ctx.focal_px, ctx.preset.disc, colours=colours)
+        if fit is None:
+            continue
+        ctx.evaluations += fit.evaluations
+        out.append(Start(f"lines ({s.strategy})", s.pose, fit.params, held=fit.pins_geometry))
     return out
 
 
@@ -427,8 +454,9 @@ STRATEGIES: dict[str, Callable[[StartContext], list[Start]]] = {
     "rings": rings_starts,
     "glint": glint_starts,
     "colours": colour_starts,
+    "lines": line_starts,
     "glint-line": glint_line_starts,
     "in-plane": in_plane_starts,
 }
-CHEAP = ("preset", "pattern", "outline", "rings", "glint", "colours")
+CHEAP = ("preset", "pattern", "outline", "rings", "glint", "colours", "lines")
 ESCALATIONS = ("glint-line", "in-plane")

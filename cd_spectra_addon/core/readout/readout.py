@@ -24,7 +24,8 @@ from ..scene.diffraction import PixelDiffraction, pixel_diffraction
 from ..spectra.grid import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, MIN_VISIBILITY, N_FEATURES, feature_bins
 
 OUTLIER_MADS = 5.0
-MIN_BIN_WEIGHT = 2.0  # Σ amplitude² — about two fully visible pixels
+MIN_BIN_WEIGHT = 2.0  # Σ visibility² of the pixels used — about two fully visible pixels (not Σ amplitude²:
+# the geometric gain is relative to the disc centre's irradiance, ~0.1 under a grazing lamp)
 
 __all__ = ["FEATURE_LAMBDA_NM", "FEATURE_STEP_NM", "MIN_VISIBILITY", "N_FEATURES", "Readout", "extract_readout"]
 
@@ -164,7 +165,8 @@ def extract_readout(
     n_used = np.bincount(b, weights=weight, minlength=N_FEATURES)
     noise = np.sqrt(var / np.maximum(n_used - 1, 1)[:, None]) / np.sqrt(safe)[:, None]
     sat_frac = np.divide(sat_w, total_w, out=np.zeros(N_FEATURES), where=total_w > 0)
-    valid = (wv2 >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
+    seen = np.bincount(b, weights=weight * px.visibility * px.visibility, minlength=N_FEATURES)
+    valid = (seen >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
     values[~valid] = 0.0
     return Readout(
         lambda_nm=FEATURE_LAMBDA_NM.copy(),
