@@ -12,7 +12,6 @@ import pytest
 
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
 from training.learning import dataset
-from training.learning import train
 from training.learning.spd_prior import gaussian_prior
 
 
@@ -33,6 +32,8 @@ def test_training_never_imports_the_measured_lamps():
 
 @pytest.mark.slow
 def test_smoke_model_trains_exports_and_loads(tmp_path):
+    from training.learning import train  # torch: imported by the tests that use it, not at collection
+
     out = tmp_path / "model"
     code = train.main(["--set", "smoke", "--n-per-cube", "60", "--epochs", "2", "--engine", "numpy",
                        "--workers", "1", "--tune-photos", "6", "--unseen-epochs", "1", "--unseen-photos", "3",
@@ -204,6 +205,7 @@ def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():
 
 def test_heldout_family_groups_partition_the_physical_families_and_probes_predict_like_the_runtime():
     from training.learning import heldout_families as hf
+    from training.learning import train
     from training.learning.tune_fusion import TUNING_FAMILIES
 
     flat = [f for g in hf.GROUPS for f in g]
