@@ -233,6 +233,7 @@ def test_band_mae_scores_the_bands_the_camera_sees_at_their_own_peak():
     assert errors[-1] > 0.1
 
 
+@pytest.mark.slow  # end to end: two 16-photo dataset builds through the product's path (~6 s)
 def test_in_camera_photos_join_the_dataset_without_disturbing_the_rest():
     """A share of in-camera JPEG/HEIC photos, each read with its camera's CIE A calibration (the
     generic ones with fitted sensitivities); the other samples stay exactly what they were."""
