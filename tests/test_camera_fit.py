@@ -72,6 +72,7 @@ def test_a_calibration_shot_measures_a_camera_the_prior_never_saw(tmp_path, capt
     np.testing.assert_allclose(again, fitted, atol=1e-3)
 
 
+@pytest.mark.slow  # end to end: a calibration shot and 12 estimates of 4 lamps, accuracy against the truth (~6 s)
 def test_generic_profile_plus_calibration_is_as_good_as_the_cameras_own_profile(tmp_path, capture):
     """Held-out camera, EXIF unknown (→ generic): one CIE A shot brings 4 synthetic lamps within
     1.3× of the camera's own measured profile, from ~3× without it."""

@@ -181,6 +181,7 @@ def test_icc_profile_marks_a_file_processed(tmp_path):
 # --- the calibration shot fits the pipeline, the estimator uses it ---------------------------------
 
 
+@pytest.mark.slow  # end to end: two calibration fits and 4 estimates, accuracy against the truth (~4 s)
 def test_calibration_shot_undoes_an_in_camera_jpeg(tmp_path, capture):
     """One in-camera JPEG of CIE A, fixed white balance: the pipeline calibration brings a warm
     LED's in-camera JPEG within 2× of a camera-native 8-bit file (the quantisation floor of any

@@ -96,17 +96,37 @@ def test_any_422_jpeg_gives_a_finite_image_or_photo_error(tmp_path, height, widt
 
 @pytest.mark.slow
 def test_24mp_422_jpeg_loads_quickly(tmp_path):
-    y, x = np.mgrid[0:4000, 0:6000]
-    codes = np.stack([127 + 100 * np.sin(x / (50.0 + 20 * c) + y / 70.0) for c in range(3)], axis=-1)
+    """Timed as a ratio to a bare decode of the same file in this process, interleaved, so a busy
+    shared machine slows both (absolute milliseconds: make bench)."""
+    y = np.arange(4000, dtype=np.float32)[:, None] / 70.0
+    x = np.arange(6000, dtype=np.float32)[None, :]
+    codes = np.empty((4000, 6000, 3), np.uint8)
+    for c in range(3):
+        codes[..., c] = 127 + 100 * np.sin(x / (50.0 + 20 * c) + y)
     path = tmp_path / "dslr.jpg"
-    Image.fromarray(codes.astype(np.uint8)).save(path, quality=95, subsampling=1)
+    Image.fromarray(codes).save(path, quality=95, subsampling=1)
     load_photo(path)
-    best = min(_timed(path) for _ in range(3))
-    print(f"\n24 MP 4:2:2 JPEG → 1024 px: {best * 1e3:.0f} ms")
-    assert best < 1.0  # ≈ 0.22 s on the build machine; generous for loaded CI machines
+    ours, bare = [], []
+    for _ in range(3):
+        bare.append(_bare_decode(path))
+        ours.append(_timed(path))
+    ratio = min(ours) / min(bare)
+    print(f"\n24 MP 4:2:2 JPEG → 1024 px: {min(ours) * 1e3:.0f} ms, bare full decode {min(bare) * 1e3:.0f} ms "
+          f"(ratio {ratio:.2f})")
+    # ≈ 2.6–3.2 (a full-size YCbCr decode plus the box means); averaging in float64 by reshape
+    # gives ≈ 10. The old bound, 1.0 s, was ≈ 7 bare decodes of this file (≈ 0.14 s).
+    assert ratio < 6.0, (ours, bare)
 
 
 def _timed(path: Path) -> float:
     start = time.perf_counter()
     load_photo(path)
+    return time.perf_counter() - start
+
+
+def _bare_decode(path: Path) -> float:
+    """Seconds Pillow takes to decode the whole file at full size (RGB): the yardstick."""
+    start = time.perf_counter()
+    with Image.open(path) as im:
+        im.load()
     return time.perf_counter() - start

@@ -1,4 +1,5 @@
-"""The SPD prior: contract of ``sample_spds``, the physics of the families, and its speed.
+"""The SPD prior: contract of ``sample_spds`` and the physics of the families (its speed, 100 000
+SPDs in ≤ 20 s, is a figure of ``make bench``: no test asserts wall-clock time).
 
 Colour-science is used here only as an independent CCT meter (its CMFs and Ohno 2013), never as
 a source of spectra.
@@ -7,7 +8,6 @@ a source of spectra.
 from __future__ import annotations
 
 import ast
-import time
 import warnings
 from pathlib import Path
 
@@ -295,18 +295,7 @@ def test_filters_only_remove_light():
     assert np.mean(t.min(axis=1) < 0.5) > 0.5  # filters are not mostly clear glass
 
 
-# --- speed and the hard rule --------------------------------------------------------------------
-
-
-@pytest.mark.slow
-def test_speed_100k_in_20_s_scaled_down():
-    sample_spds(200, np.random.default_rng(0))  # warm the cached tables
-    n = 25_000
-    t0 = time.perf_counter()
-    spds, _ = sample_spds(n, np.random.default_rng(16))
-    elapsed = time.perf_counter() - t0
-    assert spds.shape == (n, N_BANDS)
-    assert elapsed < 20.0 * n / 100_000, f"{elapsed:.2f} s for {n}"
+# --- the hard rule --------------------------------------------------------------------------------
 
 
 def test_the_module_reads_no_measured_spectra():

@@ -12,7 +12,6 @@ import pytest
 
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, load_model
 from training.learning import dataset
-from training.learning import train
 from training.learning.spd_prior import gaussian_prior
 
 
@@ -33,6 +32,8 @@ def test_training_never_imports_the_measured_lamps():
 
 @pytest.mark.slow
 def test_smoke_model_trains_exports_and_loads(tmp_path):
+    from training.learning import train  # torch: imported by the tests that use it, not at collection
+
     out = tmp_path / "model"
     code = train.main(["--set", "smoke", "--n-per-cube", "60", "--epochs", "2", "--engine", "numpy",
                        "--workers", "1", "--tune-photos", "6", "--unseen-epochs", "1", "--unseen-photos", "3",
@@ -207,6 +208,7 @@ def test_choose_bands_keeps_the_network_only_where_it_wins_clearly():
 
 def test_heldout_family_groups_partition_the_physical_families_and_probes_predict_like_the_runtime():
     from training.learning import heldout_families as hf
+    from training.learning import train
     from training.learning.tune_fusion import TUNING_FAMILIES
 
     flat = [f for g in hf.GROUPS for f in g]
@@ -234,6 +236,7 @@ def test_band_mae_scores_the_bands_the_camera_sees_at_their_own_peak():
     assert errors[-1] > 0.1
 
 
+@pytest.mark.slow  # end to end: two 16-photo dataset builds through the product's path (~6 s)
 def test_in_camera_photos_join_the_dataset_without_disturbing_the_rest():
     """A share of in-camera JPEG/HEIC photos, each read with its camera's CIE A calibration (the
     generic ones with fitted sensitivities); the other samples stay exactly what they were."""
