@@ -255,7 +255,9 @@ def report(results: list[FrameResult], seconds: float) -> str:
         seen: dict[str, list[int]] = {}
         for r in rows:
             if r.refused:
-                key = r.refused.replace(f"{r.series}#{r.frame}: ", "").replace(f"{r.series}#{r.frame}", "the frame")[:200]
+                name = f"{r.series}#{r.frame}"
+                key = r.refused[len(name) + 2:] if r.refused.startswith(name + ": ") else r.refused.replace(name, "the frame")
+                key = key[:200]
                 seen.setdefault(key, []).append(r.frame)
         for msg, frames in seen.items():
             lines.append(f"- frames {', '.join(map(str, frames))}: “{msg}”")
