@@ -100,6 +100,24 @@ def test_one_preset_per_photo_only_with_joint(tmp_path: Path) -> None:
         assert proc.stderr.startswith("error: ") and "--preset" in proc.stderr or "presets" in proc.stderr
 
 
+def test_an_animated_gif_joins_as_its_frames_with_its_preset(tmp_path: Path) -> None:
+    """``--joint a.jpg sweep.gif`` is a.jpg and each of the GIF's frames, one result; with one
+    --preset per PHOTO argument, the frames share the GIF's."""
+    from gif_writer import Frame, gif_bytes
+
+    (photo,) = _photos(tmp_path, "a.jpg")
+    gif = tmp_path / "sweep.gif"
+    gif.write_bytes(gif_bytes((70, 64), np.array([[0, 0, 0], [250, 180, 90]], np.uint8),
+                              [Frame(np.full((64, 70), 1)) for _ in range(3)]))
+    proc = run_cli("estimate", "--joint", photo, str(gif), "--preset", "cd-default", "--preset", "tripod-oblique",
+                   "--json", "-", "--progress")
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    assert [p["source"] for p in result["joint"]["photos"]] == [photo, *(f"{gif}#{i}" for i in range(3))]
+    assert result["preset"] == "cd-default, tripod-oblique, tripod-oblique, tripod-oblique"
+    assert proc.stderr.splitlines()[-1] == "[4/4] sweep.gif#2"
+
+
 @pytest.mark.parametrize("case", ["missing", "none-read"])
 def test_joint_bad_input_exits_2_and_writes_nothing(tmp_path: Path, case: str) -> None:
     photos = _photos(tmp_path, "bad1.jpg", "bad2.jpg")
