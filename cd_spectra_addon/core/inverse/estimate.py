@@ -22,7 +22,8 @@ from numpy.typing import NDArray
 
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
-from .stages import DIM_LEVEL_8BIT, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed, spectrum
+from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
+                     spectrum)
 from ..calibration.calibration import Calibration, load_calibration
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
@@ -269,8 +270,9 @@ def resolved_calibration(calibration: str | Path | Calibration | None) -> Calibr
 
 def read_image(image: LinearImage, preset: Preset, camera: str, calibration: Calibration | None,
                model: SpectralModel | None, *, focal_px: float | None = None, fit: PoseFit | None = None,
-               progress: Progress | None = None) -> PhotoReading:
-    """The camera profile for the photo, then the pose and readout stages (:mod:`.stages`)."""
+               progress: Progress | None = None, min_coverage_nm: float = MIN_COVERAGE_NM) -> PhotoReading:
+    """The camera profile for the photo, then the pose and readout stages (:mod:`.stages`;
+    ``min_coverage_nm``: the first order's share of 400–700 nm below which it is refused)."""
     report = progress or (lambda _f, _m: None)
     cam, generic, name, note = resolve_camera(camera, image, model)
     if calibration is not None and calibration.sensitivities is not None:
@@ -280,7 +282,7 @@ def read_image(image: LinearImage, preset: Preset, camera: str, calibration: Cal
     posed = pose_photo(image, preset, cam, generic_camera=generic, calibration=calibration, focal_px=focal_px,
                        fit=fit)
     report(0.5, "Reading the rainbow")
-    return PhotoReading(image, read_posed(posed), name, note)
+    return PhotoReading(image, read_posed(posed, min_coverage_nm=min_coverage_nm), name, note)
 
 
 def photo_checks(photo: PhotoReading, spd: NDArray[np.float64], preset: Preset,
