@@ -93,8 +93,8 @@ def _mae(spd: np.ndarray) -> float:
 
 @pytest.mark.slow
 def test_complementary_photos_beat_either_alone_and_cover_the_union(pair):
-    """MAE 400–700 (measured): 150 mm alone 0.018, 300 mm alone 0.077, joint 0.013; confidence
-    0.52 each alone (72 % coverage), 1.0 jointly."""
+    """MAE 400–700 (measured): 150 mm alone 0.018, 300 mm alone 0.062, joint 0.013; confidence
+    0.52 and 0.50 alone (72 % and 70 % coverage), 1.0 jointly."""
     paths, presets, _, _ = pair
     alone = [estimate_photo(p, preset=pr) for p, pr in zip(paths, presets)]
     joint = estimate_joint(paths, preset=presets)
@@ -317,7 +317,7 @@ def _readings(draw):
     return readings
 
 
-@settings(max_examples=40, deadline=None, derandomize=True)
+@settings(max_examples=20, deadline=None, derandomize=True)  # ~0.2 s each: inside the inner loop
 @given(readings=_readings(), method=st.sampled_from(["physics", "prior"]))
 def test_any_readouts_give_a_finite_spd_or_a_clear_error(readings, method):
     try:
