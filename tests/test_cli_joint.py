@@ -34,7 +34,8 @@ FAKE_JOINT = textwrap.dedent('''
         wl = np.arange(380.0, 781.0, 5.0) * 1e-9
         spd = 1.0 / (wl**5 * (np.exp(1.4388e-2 / (wl * 3000.0)) - 1.0))
         photos = [{"source": p, "used": p in used, "refused": None if p in used else "black",
-                   "coverage_nm": [[400.0, 550.0]], "brightness": 1.0, "weight": 1.0, "residual": 0.01}
+                   "coverage_nm": [[400.0, 550.0]], "held_nm": [[400.0, 552.5]], "brightness": 1.0, "weight": 1.0,
+                   "residual": 0.01, "partial": "short" in p or None}
                   for p in paths]
         presets = preset if isinstance(preset, list) else [preset]
         return Estimate(spd=spd / spd.max(), spd_std=np.full(81, 0.01), xy=(0.43, 0.40), cct_k=3000.0, duv=0.0,
@@ -67,17 +68,18 @@ def _photos(tmp_path: Path, *names: str) -> list[str]:
 
 
 def test_joint_writes_one_result_with_every_photo(tmp_path: Path) -> None:
-    photos = _photos(tmp_path, "a.jpg", "bad.jpg", "c.jpg")
+    photos = _photos(tmp_path, "a.jpg", "bad.jpg", "short.jpg")
     out = tmp_path / "out.json"
     proc = run_cli("estimate", "--joint", *photos, "--json", str(out), "--progress")
     assert proc.returncode == 0, proc.stderr
     (result,) = json.loads(out.read_text())
     assert [p["source"] for p in result["joint"]["photos"]] == photos
     assert result["joint"]["used"] == 2
-    assert proc.stderr.splitlines() == ["[1/3] a.jpg", "[2/3] bad.jpg", "[3/3] c.jpg"]
+    assert proc.stderr.splitlines() == ["[1/3] a.jpg", "[2/3] bad.jpg", "[3/3] short.jpg"]
     assert proc.stdout.splitlines()[0] == "joint estimate from 3 photos (2 used)"
     assert "  bad.jpg: left out" in proc.stdout.splitlines()
-    assert "  a.jpg: 400–550 nm, brightness ×1.00, residual 1.0%" in proc.stdout.splitlines()
+    assert "  a.jpg: 400–552 nm, brightness ×1.00, residual 1.0%" in proc.stdout.splitlines()
+    assert "  short.jpg: 400–552 nm (too little alone), brightness ×1.00, residual 1.0%" in proc.stdout.splitlines()
 
 
 def test_joint_json_to_stdout_is_one_line(tmp_path: Path) -> None:

@@ -9,14 +9,14 @@ them); the property test of the solve on any readouts is in the inner loop.
 
 from __future__ import annotations
 
+import itertools
+import json
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import itertools
-
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -116,6 +116,7 @@ def test_complementary_photos_beat_either_alone_and_cover_the_union(pair):
     assert near == pytest.approx([485.0, 780.0], abs=5.0) and far == pytest.approx([380.0, 615.0], abs=5.0)
     assert all(p["used"] and p["weight"] == 1.0 and p["pose"]["distance_mm"] > 0 for p in photos)
     assert joint.spd.max() == 1.0 and np.all(np.isfinite(joint.spd)) and np.all(joint.spd >= 0)
+    json.dumps(joint.to_json(), allow_nan=False)  # no NaN or infinity anywhere in the result
 
 
 @pytest.mark.slow
@@ -214,6 +215,7 @@ def test_refused_photos_are_reported_not_fatal(pair, tmp_path):
     assert [Path(p["source"]).name for p in refused] == ["noise.png", "broken.jpg"]
     assert "no CD rainbow" in refused[0]["refused"] and "broken.jpg" in refused[1]["refused"]
     assert sum(w.startswith("left out") for w in result.warnings) == 2
+    json.dumps(result.to_json(), allow_nan=False)
     assert _mae(result.spd) < 0.1
     with pytest.raises(PhotoError, match="none of the 2 photos could be read.*noise.png.*broken.jpg"):
         estimate_joint([noise, broken], preset=presets[0], method="prior")

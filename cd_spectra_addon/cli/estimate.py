@@ -234,16 +234,20 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
 
 
 def _joint_lines(joint: dict[str, Any]) -> list[str]:
-    """One line per photo of a joint estimate: what it covered, how bright, how much say."""
+    """One line per photo of a joint estimate: the stretch of 400–700 nm it holds (else the
+    wavelengths it reads), how bright, how much say; "left out" for a photo not read (the
+    warnings say why)."""
     lines = []
     for photo in joint.get("photos") or []:
         name = Path(str(photo.get("source") or "?")).name
         if photo.get("refused"):
             lines.append(f"  {name}: left out")
             continue
-        spans = ", ".join(f"{lo:.0f}–{hi:.0f}" for lo, hi in photo.get("coverage_nm") or []) or "no"
+        held = photo.get("held_nm") if photo.get("held_nm") is not None else photo.get("coverage_nm")
+        spans = ", ".join(f"{lo:.0f}–{hi:.0f}" for lo, hi in held or []) or "no"
+        short = " (too little alone)" if photo.get("partial") else ""
         say = f", say {photo['weight']:.2f}" if float(photo.get("weight", 1.0)) < 1.0 else ""
-        lines.append(f"  {name}: {spans} nm, brightness ×{float(photo.get('brightness', 1.0)):.2f}, "
+        lines.append(f"  {name}: {spans} nm{short}, brightness ×{float(photo.get('brightness', 1.0)):.2f}, "
                      f"residual {100 * float(photo.get('residual', 0.0)):.1f}%{say}")
     return lines
 
