@@ -38,6 +38,7 @@ from training.simulation.render_numpy import render_cube
 CAMERA = load_camera(DEFAULT_CAMERA)
 DISTANCES = (150, 300)
 SHORT = 125  # first order on the tracks from 578 nm: too little of 400–700 nm for a reading alone
+BEYOND = 100  # first order on the tracks from 717 nm: none of 400–700 nm
 
 
 def _preset(distance_mm: int) -> Preset:
@@ -57,7 +58,7 @@ def _lamp() -> np.ndarray:
 @pytest.fixture(scope="module")
 def captures() -> dict[int, tuple[Preset, np.ndarray, np.ndarray]]:
     out = {}
-    for d in (*DISTANCES, SHORT):
+    for d in (*DISTANCES, SHORT, BEYOND):
         preset = _preset(d)
         scene = Scene(preset)
         out[d] = (preset, render_cube(scene, supersample=3), photo.track_mask(scene))
@@ -144,6 +145,15 @@ def test_a_photo_too_short_alone_contributes_its_stretch(pair, captures, tmp_pat
     assert joint.confidence > far.confidence
     with pytest.raises(PhotoError, match=r"the 2 photos together hold only 5\d\d–700 nm .*short.jpg holds"):
         estimate_joint([short, again], preset=captures[SHORT][0])
+    # A photo whose rainbow is found (its true pose given) but whose first order holds none of
+    # 400–700 nm is left out saying so - not "no CD rainbow" - and the others are still read.
+    beyond, _ = _shoot(tmp_path, captures, BEYOND, _lamp(), seed=4, name="beyond")
+    result = estimate_joint([paths[1], beyond], preset=[presets[1], captures[BEYOND][0]], method="prior",
+                            fits=[None, PoseFit.of_scene(Scene(captures[BEYOND][0]))])
+    (refused,) = [p["refused"] for p in result.extra["joint"]["photos"] if p["refused"]]
+    assert refused.startswith("beyond.jpg: the rainbow is found but its first order on the disc's tracks holds "
+                              "none of 400–700 nm (0 nm; a photo of a joint estimate needs 50 nm of 400–700)")
+    assert result.extra["joint"]["used"] == 1
 
 
 @pytest.mark.slow

@@ -260,8 +260,10 @@ def _coverage_refusal(name: str, fit: PoseFit, stretches: list[tuple[float, floa
     seen = ""
     if fit.line_orders and 1 not in fit.line_orders:
         seen = f"; its lines are the disc's {_ordinals(fit.line_orders)} order{'s' if len(fit.line_orders) > 1 else ''}"
+    needs = (f"a reading needs {needed_nm:.0f} nm" if needed_nm >= MIN_COVERAGE_NM else
+             f"a photo of a joint estimate needs {needed_nm:.0f} nm")
     return (f"{name}: the rainbow is found but its first order on the disc's tracks holds {held} "
-            f"({total:.0f} nm; a reading needs {needed_nm:.0f} nm of 400–700){seen} — {advice}")
+            f"({total:.0f} nm; {needs} of 400–700){seen} — {advice}")
 
 
 def _ordinals(orders: Sequence[int]) -> str:
