@@ -16,14 +16,15 @@ PY313 := $(VENV313)/bin/python
 STAMP313 := $(VENV313)/.installed-$(shell cat requirements-py313.txt | md5sum | cut -c1-8)
 # What runs under Python 3.13 / bpy 5.2: the installed extension (install, estimate, light, undo,
 # unregister), the packaging rules, the CLI, camera files (rawpy, pillow-heif, 4:2:2 JPEGs, fitted camera
-# sensitivities), the planner, measured set-ups and the numpy core. Training (torch) stays on 3.11.
+# sensitivities), the planner, measured set-ups, the joint estimate and the numpy core. Training (torch) stays on 3.11.
 TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py tests/test_cli.py tests/test_cli_commands.py \
 	tests/test_colour.py tests/test_working_space.py tests/test_estimate.py tests/test_inverse_core.py \
 	tests/test_spectra_files.py tests/test_grating.py tests/test_spectral_grid.py \
 	tests/test_camera_files.py tests/test_camera_pipeline.py tests/test_images.py tests/test_export_formats.py \
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
 	tests/test_capture_pose.py tests/test_general_pose.py tests/test_pose_recovery.py tests/test_disc_window.py tests/test_camera_fit.py \
-	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py
+	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py \
+	tests/test_cli_joint.py tests/test_joint_estimate.py
 
 # The tests run on both cores: pytest-xdist with one worker per core, each test file on one worker
 # (--dist loadfile: a module's fixtures, e.g. its rendered capture or the hostile-input runs, are

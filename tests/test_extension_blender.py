@@ -39,7 +39,7 @@ pytestmark = pytest.mark.blender
 
 TESTS_DIR = str(Path(__file__).resolve().parent)
 OPERATORS = ("estimate_spd", "create_light", "apply_to_light", "export_spd", "load_reference_spd", "calibrate",
-             "save_measured_setup")
+             "save_measured_setup", "joint_add_photos", "joint_remove_photo", "estimate_joint")
 
 
 def _store(addon: Installed, data: dict[str, Any]) -> None:
@@ -472,6 +472,10 @@ if scenario == "gif":  # an animated GIF: the frame field shows
         fh.write(gif_bytes((70, 64), np.array([[0, 0, 0], [200, 150, 90]], np.uint8),
                            [Frame(np.full((64, 70), i % 2)) for i in range(3)]))
     settings.photo_path, settings.photo_frame = gif, 2
+if scenario == "joint":
+    for name in ("/photos/a.jpg", "/photos/b.jpg"):
+        settings.joint_photos.add().path = name
+    state.store_estimate(settings, fake_estimate(blackbody_spd(3000.0), joint={"given": 3, "used": 2, "photos": []}))
 result = {"drawn": [], "errors": []}
 
 def draw(menu, context):
@@ -493,7 +497,8 @@ os._exit(3)
 '''
 
 
-@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured", "gif"])
+@pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured", "gif",
+                                      "joint"])
 def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenario: str) -> None:
     """Panels drawn into a real ``UILayout`` (not a stub).
 
@@ -509,8 +514,9 @@ def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenar
     line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("RESULT "))
     result = json.loads(line[len("RESULT "):])
     assert result["errors"] == [], "\n".join(result["errors"])
-    assert result["drawn"] == ["CDSPECTRA_PT_main", "CDSPECTRA_PT_result", "CDSPECTRA_PT_compare",
-                               "CDSPECTRA_PT_calibrate", "CDSPECTRA_PT_capture", "CDSPECTRA_PT_measured"]
+    assert result["drawn"] == ["CDSPECTRA_PT_main", "CDSPECTRA_PT_joint", "CDSPECTRA_PT_result",
+                               "CDSPECTRA_PT_compare", "CDSPECTRA_PT_calibrate", "CDSPECTRA_PT_capture",
+                               "CDSPECTRA_PT_measured"]
     problems = [ln for ln in output.splitlines()
                 if re.search(r"not found|unknown operator|Traceback|Error(?! \(bke\.icons\))", ln)
                 and "bke.icons" not in ln]
@@ -711,6 +717,81 @@ def test_estimator_error_is_reported_and_changes_nothing(addon: Installed, monke
         bpy.ops.cd_spectra.estimate_spd(filepath=str(photo))
     assert scene_snapshot() == before
     assert bpy.context.scene.cd_spectra.photo_path == ""
+
+
+def _fake_joint_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, fail: str | None = None) -> list:
+    """Put a fake ``core.inverse.joint`` into the installed add-on; returns the calls it got."""
+    result_mod = addon.sub("cd_spectra_addon.core.inverse.result")
+    errors = addon.sub("cd_spectra_addon.core.errors")
+    calls: list = []
+
+    def estimate_joint(paths, *, preset="cd-default", camera="", calibration=None, working_space="Linear Rec.709",
+                       progress=None):
+        if progress is not None:
+            progress(0.5, "photo 1 of 2: a.jpg")
+        calls.append((list(paths), preset, camera, calibration, working_space))
+        if fail:
+            raise errors.PhotoError(fail)
+        return result_mod.Estimate(
+            spd=np.array(blackbody_spd(4000.0)), spd_std=np.full(81, 0.02), xy=(0.38, 0.38), cct_k=4000.0,
+            duv=0.0, rgb_scene_linear=(1.0, 0.8, 0.6), confidence=0.8, warnings=[], disc=result_mod.DiscFit(
+                (100.0, 100.0), 90.0), timing_ms={"total": 5.0}, source=paths[0], preset=preset, camera=camera,
+            calibration=calibration, model_version="fake-joint",
+            extra={"joint": {"given": len(paths), "used": len(paths), "photos": []}})
+
+    module = types.ModuleType(f"{ADDON_MODULE}.cd_spectra_addon.core.inverse.joint")
+    module.estimate_joint = estimate_joint
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    return calls
+
+
+def test_joint_photo_list_adds_without_duplicates_and_removes(addon: Installed, tmp_path: Path) -> None:
+    settings = bpy.context.scene.cd_spectra
+    with pytest.raises(RuntimeError, match="empty"):
+        bpy.ops.cd_spectra.joint_remove_photo(index=0)
+    files = [{"name": "a.jpg"}, {"name": "b.jpg"}]
+    assert bpy.ops.cd_spectra.joint_add_photos(directory=str(tmp_path), files=files) == {"FINISHED"}
+    assert bpy.ops.cd_spectra.joint_add_photos(directory=str(tmp_path), files=files[1:] + [{"name": "c.jpg"}]) \
+        == {"FINISHED"}
+    assert [Path(p.path).name for p in settings.joint_photos] == ["a.jpg", "b.jpg", "c.jpg"]
+    assert bpy.ops.cd_spectra.joint_remove_photo(index=1) == {"FINISHED"}
+    assert [Path(p.path).name for p in settings.joint_photos] == ["a.jpg", "c.jpg"]
+    assert bpy.ops.cd_spectra.joint_remove_photo(index=-1) == {"FINISHED"}
+    assert len(settings.joint_photos) == 0
+
+
+def test_joint_estimate_stores_one_result_from_every_photo(addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                                           tmp_path: Path) -> None:
+    calls = _fake_joint_estimator(addon, monkeypatch)
+    settings = bpy.context.scene.cd_spectra
+    with pytest.raises(RuntimeError, match="Add photos"):
+        bpy.ops.cd_spectra.estimate_joint()
+    from gif_writer import Frame, gif_bytes
+
+    gif = tmp_path / "sweep.gif"  # an animated GIF joins as each of its frames
+    gif.write_bytes(gif_bytes((70, 64), np.array([[0, 0, 0], [200, 150, 90]], np.uint8),
+                              [Frame(np.full((64, 70), i % 2)) for i in range(3)]))
+    for name in ("a.jpg", "sweep.gif", "b.jpg"):
+        settings.joint_photos.add().path = str(tmp_path / name)
+    settings.camera = "Nikon_D5100"
+    assert bpy.ops.cd_spectra.estimate_joint() == {"FINISHED"}
+    assert calls == [([str(tmp_path / "a.jpg"), *(f"{gif}#{i}" for i in range(3)), str(tmp_path / "b.jpg")],
+                      "cd-default", "Nikon_D5100", None, "Linear Rec.709")]
+    data = addon.sub("cd_spectra_addon.blender.state").last_estimate(settings)
+    assert data["model_version"] == "fake-joint" and data["joint"]["used"] == 5
+    assert settings.node_group is not None and bpy.ops.cd_spectra.create_light() == {"FINISHED"}
+
+
+def test_failed_joint_estimate_changes_nothing(addon: Installed, monkeypatch: pytest.MonkeyPatch,
+                                               tmp_path: Path) -> None:
+    _fake_joint_estimator(addon, monkeypatch, fail="none of the 2 photos could be read: a.jpg: black; b.jpg: black")
+    settings = bpy.context.scene.cd_spectra
+    for name in ("a.jpg", "b.jpg"):
+        settings.joint_photos.add().path = str(tmp_path / name)
+    before = scene_snapshot()
+    with pytest.raises(RuntimeError, match="none of the 2 photos"):
+        bpy.ops.cd_spectra.estimate_joint()
+    assert scene_snapshot() == before
 
 
 def test_reference_spd_is_compared_with_the_estimate(addon: Installed, tmp_path: Path) -> None:

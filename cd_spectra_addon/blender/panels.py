@@ -6,6 +6,7 @@ data-blocks while drawing).
 
 from __future__ import annotations
 
+import os
 import textwrap
 from typing import Any
 
@@ -16,6 +17,7 @@ from .node_group import curve_node
 from .registration import register_classes, unregister_classes
 
 CATEGORY = "CD Spectra"
+JOINT_ROWS = 8  # photos listed by name in the joint panel (a video's frames can be hundreds)
 # core.colour.compare_spds keys worth showing, with their labels and formats.
 METRICS = (
     ("mae_400_700", "MAE 400–700 nm", "{:.3f}"),
@@ -75,6 +77,40 @@ class CDSPECTRA_PT_main(_SidebarPanel, bpy.types.Panel):
         op.frame = settings.photo_frame
 
 
+class CDSPECTRA_PT_joint(_SidebarPanel, bpy.types.Panel):
+    """Several photos of one lamp, one estimate (capture, camera and calibration from above)."""
+
+    bl_idname = "CDSPECTRA_PT_joint"
+    bl_label = "Several Photos, One Lamp"
+    bl_parent_id = "CDSPECTRA_PT_main"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context: bpy.types.Context) -> None:
+        layout = self.layout
+        settings = _settings(context)
+        if settings is None:
+            return
+        _wrapped(layout, context, "Photos of the CD under the same lamp from several angles or positions (or a "
+                 "video's frames) give one spectrum that covers more, with less noise. Capture, camera and "
+                 "calibration are the ones above.")
+        photos = settings.joint_photos
+        box = layout.box()
+        if not photos:
+            box.label(text="No photos yet", icon="INFO")
+        for i, item in enumerate(photos[:JOINT_ROWS]):
+            row = box.row(align=True)
+            row.label(text=os.path.basename(item.path) or "—", icon="IMAGE_DATA")
+            row.operator("cd_spectra.joint_remove_photo", text="", icon="X", emboss=False).index = i
+        if len(photos) > JOINT_ROWS:
+            box.label(text=f"… and {len(photos) - JOINT_ROWS} more ({len(photos)} photos)")
+        row = layout.row(align=True)
+        row.operator("cd_spectra.joint_add_photos", icon="ADD")
+        row.operator("cd_spectra.joint_remove_photo", text="Clear", icon="TRASH").index = -1
+        row = layout.row()
+        row.scale_y = 1.4
+        row.operator("cd_spectra.estimate_joint", icon="LIGHT")
+
+
 class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):
     bl_idname = "CDSPECTRA_PT_result"
     bl_label = "Result"
@@ -109,6 +145,10 @@ class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):
             grid.label(text=value)
         if data.get("cct_k") is None:
             _wrapped(layout, context, "Too far from white light for a colour temperature.", "INFO")
+        joint = data.get("joint")
+        if isinstance(joint, dict):
+            _wrapped(layout, context, f"From {joint.get('used')} of {joint.get('given')} photos of one lamp.",
+                     "IMAGE_DATA")
         warnings = list(data.get("warnings") or [])
         if warnings:
             box = layout.box()
@@ -268,8 +308,8 @@ class CDSPECTRA_PT_measured(_SidebarPanel, bpy.types.Panel):
         layout.operator("cd_spectra.save_measured_setup", icon="PRESET_NEW")
 
 
-classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_result, CDSPECTRA_PT_compare, CDSPECTRA_PT_calibrate,
-           CDSPECTRA_PT_capture, CDSPECTRA_PT_measured)
+classes = (CDSPECTRA_PT_main, CDSPECTRA_PT_joint, CDSPECTRA_PT_result, CDSPECTRA_PT_compare,
+           CDSPECTRA_PT_calibrate, CDSPECTRA_PT_capture, CDSPECTRA_PT_measured)
 
 
 def register() -> None:

@@ -14,6 +14,7 @@ from typing import Any
 
 import bpy
 from bpy.props import (
+    CollectionProperty,
     EnumProperty,
     FloatProperty,
     IntProperty,
@@ -24,6 +25,7 @@ from bpy.props import (
 from ..core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
 from ..core.scene.capture import DEFAULT_PRESET
 from ..core.spectra.illuminants import KNOWN_LAMPS
+from .registration import register_classes, unregister_classes
 
 NO_CALIBRATION = "NONE"
 
@@ -132,6 +134,13 @@ def calibration_items(_self: Any, _context: Any) -> list[tuple[str, str, str, in
     return items
 
 
+class CDSpectraJointPhoto(bpy.types.PropertyGroup):
+    """One photo of a joint estimate (several photos of one lamp)."""
+
+    path: StringProperty(name="Photo", subtype="FILE_PATH",
+                         description="A photo of the CD under the same lamp as the others")
+
+
 class CDSpectraSettings(bpy.types.PropertyGroup):
     """Everything the sidebar shows; saved in the .blend with the scene."""
 
@@ -202,13 +211,21 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     setup_aperture_mm: FloatProperty(name="Aperture (mm)", default=3.0, min=0.0, soft_max=50.0,
                                      description="Lens entrance pupil: focal length / f-number (a phone: about 3)")
 
+    joint_photos: CollectionProperty(
+        type=CDSpectraJointPhoto, name="Photos of one lamp",
+        description="Several photos of the CD under the same lamp (angles, positions, video frames): one "
+                    "estimate from all of them")
+
+
+_CLASSES = (CDSpectraJointPhoto, CDSpectraSettings)  # the item first: the settings hold a collection of it
+
 
 def register() -> None:
-    bpy.utils.register_class(CDSpectraSettings)
+    register_classes(_CLASSES)
     try:
         bpy.types.Scene.cd_spectra = PointerProperty(type=CDSpectraSettings)
     except Exception:
-        bpy.utils.unregister_class(CDSpectraSettings)
+        unregister_classes(_CLASSES)
         raise
 
 
@@ -220,6 +237,6 @@ def refresh_presets() -> None:
 
 def unregister() -> None:
     del bpy.types.Scene.cd_spectra
-    bpy.utils.unregister_class(CDSpectraSettings)
+    unregister_classes(_CLASSES)
     _ITEMS.clear()
     _USER_PRESETS.clear()

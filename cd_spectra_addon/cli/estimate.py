@@ -9,12 +9,19 @@ where files went). ``--json FILE`` writes the results (``Estimate.to_json()``) a
 ``--plot`` draws the SPDs with their uncertainty (matplotlib, imported only then). With several
 photos, progress goes to stderr (when it is a terminal, or with ``--progress``). Files appear
 whole or not at all; bad input writes nothing.
+
+``--joint``: the photos show one lamp (a sweep of angles, the frames of a video, several
+positions), so they give ONE result, solved from all of them at once (:mod:`..core.inverse.joint`),
+with every photo's pose, brightness and coverage — or why it was left out — in its ``joint``
+field; an animated GIF joins as each of its frames; ``--preset`` may then be given once per
+PHOTO argument.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -32,7 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("photos", nargs="+", type=Path, metavar="PHOTO",
                         help="JPEG, PNG, TIFF, EXR, GIF (and camera raw / HEIC where this build reads them); "
                              "an animated GIF is each of its frames, FILE.gif#N one of them (from 0)")
-    parser.add_argument("--preset", default=DEFAULT_PRESET, help=f"capture preset (default {DEFAULT_PRESET})")
+    parser.add_argument("--preset", default=DEFAULT_PRESET, action=_Presets,
+                        help=f"capture preset (default {DEFAULT_PRESET}); with --joint, once per PHOTO if "
+                             "they differ (an animated GIF's frames share its preset)")
+    parser.set_defaults(presets=None)
     parser.add_argument("--camera", default="auto",
                         help="camera profile (default: from the photo's EXIF Make/Model, else the generic profile "
                              f"with a warning; e.g. {DEFAULT_CAMERA}; see `cameras`)")
@@ -40,9 +50,59 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON; '-' for stdout")
     parser.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")
     parser.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the SPDs (needs matplotlib)")
+    parser.add_argument("--joint", action="store_true",
+                        help="the photos show the same lamp: one estimate from all of them together")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                         help="a line on stderr per photo when there are several (default: when stderr "
                              "is a terminal)")
+
+
+class _Presets(argparse.Action):
+    """``--preset`` as before (``args.preset``: the first given), and every one given in
+    ``args.presets`` (a joint estimate's, one per photo)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        given = list(getattr(namespace, "presets", None) or [])
+        namespace.presets = [*given, values]
+        namespace.preset = namespace.presets[0]
+
+
+def _check_presets(args: argparse.Namespace) -> None:
+    presets = args.presets or [args.preset]
+    if len(presets) > 1 and not args.joint:
+        raise UsageError("--preset given several times: that is for --joint (one preset per photo)")
+    if len(presets) not in (1, len(args.photos)):
+        raise UsageError(f"{len(presets)} presets for {len(args.photos)} photos: give --preset once, "
+                         "or once per photo")
+
+
+def _estimate_joint(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """The one joint result, as a list of one (the output paths take lists)."""
+    try:
+        from ..core.inverse.joint import estimate_joint
+    except ImportError as exc:
+        raise UsageError(f"this build has no estimator ({exc})") from exc
+    given = args.presets if args.presets and len(args.presets) > 1 else [args.preset] * len(args.photos)
+    photos: list[str] = []
+    presets: list[str] = []
+    for path, preset in zip(args.photos, given):  # an animated GIF: each frame, with the GIF's preset
+        frames = _photo_list([path])
+        photos += frames
+        presets += [preset] * len(frames)
+    show = (sys.stderr.isatty() if args.progress is None else args.progress) and len(photos) > 1
+
+    def step(_fraction: float, message: str) -> None:  # "photo 2 of 5: b.jpg" → "[2/5] b.jpg", like the batch
+        found = re.fullmatch(r"photo (\d+) of (\d+): (.*)", message)
+        if show and found:
+            progress(f"[{found[1]}/{found[2]}] {found[3]}")
+
+    try:
+        estimate = estimate_joint(photos, preset=presets if len(set(presets)) > 1 else args.preset,
+                                  camera=args.camera, calibration=args.calibration, progress=step)
+    except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
+        raise UsageError(str(exc)) from exc
+    return [estimate.to_json()]
 
 
 def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
@@ -100,7 +160,8 @@ def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
     fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=120)
     for data in results:
         wl, spd = data["wavelength_nm"], data["spd"]
-        label = Path(str(data.get("source", ""))).name
+        joint = data.get("joint")
+        label = f"joint, {joint['used']} photos" if joint else Path(str(data.get("source", ""))).name
         cct = data.get("cct_k")
         if cct:
             label += f" ({cct:.0f} K)"
@@ -172,15 +233,40 @@ def write_blend(results: Sequence[dict[str, Any]], path: Path) -> None:
             properties.unregister()
 
 
+def _joint_lines(joint: dict[str, Any]) -> list[str]:
+    """One line per photo of a joint estimate: the stretch of 400–700 nm it holds (else the
+    wavelengths it reads), how bright, how much say; "left out" for a photo not read (the
+    warnings say why)."""
+    lines = []
+    for photo in joint.get("photos") or []:
+        name = Path(str(photo.get("source") or "?")).name
+        if photo.get("refused"):
+            lines.append(f"  {name}: left out")
+            continue
+        held = photo.get("held_nm") if photo.get("held_nm") is not None else photo.get("coverage_nm")
+        spans = ", ".join(f"{lo:.0f}–{hi:.0f}" for lo, hi in held or []) or "no"
+        short = " (too little alone)" if photo.get("partial") else ""
+        say = f", say {photo['weight']:.2f}" if float(photo.get("weight", 1.0)) < 1.0 else ""
+        lines.append(f"  {name}: {spans} nm{short}, brightness ×{float(photo.get('brightness', 1.0)):.2f}, "
+                     f"residual {100 * float(photo.get('residual', 0.0)):.1f}%{say}")
+    return lines
+
+
 def summary(data: dict[str, Any]) -> list[str]:
     """A few lines a person reads: which photo, the lamp's colour, how sure, what to watch."""
-    lines = [str(data.get("source") or "?")]
+    joint = data.get("joint")
+    if joint:
+        lines = [f"joint estimate from {joint.get('given')} photos ({joint.get('used')} used)"]
+    else:
+        lines = [str(data.get("source") or "?")]
     cct, duv, xy = data.get("cct_k"), data.get("duv"), data.get("xy") or (float("nan"), float("nan"))
     colour = f"CCT {cct:.0f} K, Duv {duv:+.4f}" if cct is not None and duv is not None else "no CCT (far from white)"
     lines.append(f"  {colour}, xy ({xy[0]:.4f}, {xy[1]:.4f}), confidence {float(data.get('confidence', 0)):.0%}")
     extras = [f"{key} {data[key]}" for key in ("preset", "camera", "calibration") if data.get(key)]
     if extras:
         lines.append("  " + ", ".join(extras))
+    if joint:
+        lines += _joint_lines(joint)
     lines += [f"  warning: {w}" for w in data.get("warnings") or []]
     return lines
 
@@ -192,9 +278,10 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     check_output(args.plot, ".png")
     from ..core.photo.images import register_decoder, unregister_decoder
 
+    _check_presets(args)
     register_decoder(_blender_fallback_decoder)
     try:
-        results = _estimate_all(args)
+        results = _estimate_joint(args) if args.joint else _estimate_all(args)
     finally:
         unregister_decoder(_blender_fallback_decoder)
     written = []

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import bpy
@@ -69,42 +70,52 @@ class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra has no estimator ({exc})")
             return {"CANCELLED"}
-        space = state.working_space_for(self)
-        with progress(context) as update:
-            try:
-                update(0.0, "reading the photo")
-                estimate = estimate_photo(
-                    path,
-                    preset=self.preset or DEFAULT_PRESET,
-                    camera=state.camera_choice(self.camera),
-                    calibration=state.calibration_choice(self.calibration),
-                    working_space=space,
-                    progress=update,
-                )
-                data = estimate.to_json()
-                spd = state.valid_spd(data.get("spd", ()))
-                if spd is None:
-                    raise CDSpectraError("the estimate is not a usable spectrum (empty or not finite)")
-                info = spectral_colour(spd, space)
-            except CDSpectraError as exc:
-                self.report({"ERROR"}, str(exc))
-                return {"CANCELLED"}
-            except ValueError as exc:  # colour conversion refused the SPD
-                self.report({"ERROR"}, f"Cannot use this estimate: {exc}")
-                return {"CANCELLED"}
-            except Exception as exc:  # a bug, not the photo: say so; the scene is not touched yet
-                self.report({"ERROR"}, f"Internal error in CD Spectra ({type(exc).__name__}: {exc}); the scene "
-                            "was not changed. This is a bug: please report it with the photo")
-                return {"CANCELLED"}
-            update(0.95, "building the spectral node group")
-            group = ensure_node_group(spd, info, state.estimate_meta(data))
-        state.store_estimate(settings, data)
-        settings.node_group = group
+
+        def estimate(update: Callable[[float, str], None], space: str) -> Any:
+            update(0.0, "reading the photo")
+            return estimate_photo(path, preset=self.preset or DEFAULT_PRESET,
+                                  camera=state.camera_choice(self.camera),
+                                  calibration=state.calibration_choice(self.calibration), working_space=space,
+                                  progress=update)
+
+        if not run_and_store(self, context, estimate):
+            return {"CANCELLED"}
         settings.photo_path = self.filepath or settings.photo_path
         settings.photo_frame = self.frame
         for name in _CHOICES:
             if getattr(self, name):
                 setattr(settings, name, getattr(self, name))
-        cct = f"{info.cct_k:.0f} K" if info.cct_k else f"xy {info.xy[0]:.4f}, {info.xy[1]:.4f}"
-        self.report({"INFO"}, f"Estimated {cct}, confidence {float(data.get('confidence', 0)):.0%}")
         return {"FINISHED"}
+
+
+def run_and_store(operator: bpy.types.Operator, context: bpy.types.Context,
+                  estimate: Callable[[Callable[[float, str], None], str], Any]) -> bool:
+    """Run ``estimate(update, working_space)`` under a progress cursor and store its result as
+    the scene's last estimate with its node group; False (reported, the scene untouched) when
+    it fails. Shared by the one-photo and the several-photo estimate."""
+    settings = context.scene.cd_spectra
+    space = state.working_space_for(operator)
+    with progress(context) as update:
+        try:
+            data = estimate(update, space).to_json()
+            spd = state.valid_spd(data.get("spd", ()))
+            if spd is None:
+                raise CDSpectraError("the estimate is not a usable spectrum (empty or not finite)")
+            info = spectral_colour(spd, space)
+        except CDSpectraError as exc:
+            operator.report({"ERROR"}, str(exc))
+            return False
+        except ValueError as exc:  # colour conversion refused the SPD
+            operator.report({"ERROR"}, f"Cannot use this estimate: {exc}")
+            return False
+        except Exception as exc:  # a bug, not the photo: say so; the scene is not touched yet
+            operator.report({"ERROR"}, f"Internal error in CD Spectra ({type(exc).__name__}: {exc}); the scene "
+                            "was not changed. This is a bug: please report it with the photo")
+            return False
+        update(0.95, "building the spectral node group")
+        group = ensure_node_group(spd, info, state.estimate_meta(data))
+    state.store_estimate(settings, data)
+    settings.node_group = group
+    cct = f"{info.cct_k:.0f} K" if info.cct_k else f"xy {info.xy[0]:.4f}, {info.xy[1]:.4f}"
+    operator.report({"INFO"}, f"Estimated {cct}, confidence {float(data.get('confidence', 0)):.0%}")
+    return True

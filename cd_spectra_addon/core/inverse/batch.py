@@ -7,6 +7,8 @@ costs nothing on one. Results come back in the order given; a photo that cannot 
 the same error, at the same place in the sequence, as reading them one by one would. Where a
 fallback decoder that must run on the main thread is registered (Blender's loader, which the CLI
 registers for formats Pillow cannot read), photos are read one after the other instead.
+:func:`prefetched` is that loading on its own, for any caller that works through photos in
+turn (the batch here, the joint estimate of :mod:`.joint`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,31 +26,58 @@ from .estimate import estimate_image
 from .load import load_for_estimate
 from .result import Estimate
 
-__all__ = ["estimate_photos"]
+__all__ = ["Loaded", "prefetched", "estimate_photos"]
 
 
-def _loaded(path: str | Path, preset: Preset) -> tuple[LinearImage, float]:
+@dataclass(frozen=True)
+class Loaded:
+    """One photo as :func:`prefetched` hands it over: the image, or the error reading it raised."""
+
+    source: str
+    image: LinearImage | None
+    error: Exception | None
+    load_ms: float
+
+
+def _load(photo: str | Path | LinearImage, preset: Preset) -> Loaded:
+    if isinstance(photo, LinearImage):  # already loaded: nothing to read
+        return Loaded(str(photo.path), photo, None, 0.0)
     t0 = time.perf_counter()
-    image = load_for_estimate(path, preset)
-    return image, (time.perf_counter() - t0) * 1e3
+    try:
+        image = load_for_estimate(photo, preset)
+    except Exception as exc:  # handed to the caller, who raises it or reports it in its place
+        return Loaded(str(photo), None, exc, (time.perf_counter() - t0) * 1e3)
+    return Loaded(str(photo), image, None, (time.perf_counter() - t0) * 1e3)
+
+
+def prefetched(photos: Sequence[str | Path | LinearImage], presets: Preset | Sequence[Preset]
+               ) -> Iterator[Loaded]:
+    """Each photo loaded for the estimate (with its preset: one for all, or one each), in order,
+    the next one loading in the background while the caller works on this one. A generator:
+    stop iterating and no further photo is read."""
+    each = [presets] * len(photos) if isinstance(presets, Preset) else list(presets)
+    if decoders_need_main_thread():
+        for photo, preset in zip(photos, each):
+            yield _load(photo, preset)
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="cd-spectra-load") as pool:
+        pending: Future[Loaded] | None = pool.submit(_load, photos[0], each[0]) if photos else None
+        for i in range(len(photos)):
+            assert pending is not None
+            loaded = pending.result()
+            pending = pool.submit(_load, photos[i + 1], each[i + 1]) if i + 1 < len(photos) else None
+            yield loaded
 
 
 def estimate_photos(paths: Sequence[str | Path], *, preset: str | Preset, **options: Any) -> Iterator[Estimate]:
     """``estimate_photo`` of each path in turn (same ``options``), the next one loading in the
     background. A generator: stop iterating and no further photo is read."""
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
-    if decoders_need_main_thread():
-        for path in paths:
-            image, load_ms = _loaded(path, preset_obj)
-            yield _timed(estimate_image(image, preset=preset_obj, **options), load_ms)
-        return
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="cd-spectra-load") as pool:
-        pending: Future[tuple[LinearImage, float]] | None = pool.submit(_loaded, paths[0], preset_obj) if paths else None
-        for i in range(len(paths)):
-            assert pending is not None
-            image, load_ms = pending.result()  # re-raises the loader's own error for this photo
-            pending = pool.submit(_loaded, paths[i + 1], preset_obj) if i + 1 < len(paths) else None
-            yield _timed(estimate_image(image, preset=preset_obj, **options), load_ms)
+    for loaded in prefetched(paths, preset_obj):
+        if loaded.error is not None:
+            raise loaded.error  # the loader's own error for this photo
+        assert loaded.image is not None
+        yield _timed(estimate_image(loaded.image, preset=preset_obj, **options), loaded.load_ms)
 
 
 def _timed(result: Estimate, load_ms: float) -> Estimate:

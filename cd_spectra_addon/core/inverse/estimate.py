@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,8 @@ from numpy.typing import NDArray
 
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
-from .stages import DIM_LEVEL_8BIT, OPERATING_POINTS, Reading, pose_photo, read_posed, spectrum
+from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
+                     spectrum)
 from ..calibration.calibration import Calibration, load_calibration
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
@@ -63,7 +65,8 @@ AMBIENT_WARN = 0.01
 Progress = Callable[[float, str], None]
 
 __all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
-           "solving_camera"]
+           "solving_camera", "PhotoReading", "read_image", "photo_checks", "profile_residual", "disc_fit",
+           "estimate_result", "resolved_model", "resolved_calibration"]
 
 
 def camera_for(name: str, model: SpectralModel | None) -> tuple[CameraProfile, bool]:
@@ -127,10 +130,23 @@ def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]
     return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
 
 
+def profile_residual(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+    """How far ``spd``, at the brightness that fits best, is from reproducing the photo's
+    features: RMS over the valid features relative to the largest (1 where none is valid)."""
+    valid = readout.valid
+    if not np.any(valid):
+        return 1.0
+    p, m = np.einsum("bcl,l->bc", matrix, spd)[valid], readout.values[valid]
+    scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
+    return float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
+
+
 def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Reading,
                 image: LinearImage | None, generic: bool, focal_source: str,
-                preset: Preset | None = None) -> tuple[float, list[str], dict]:
-    """0–1 and plain-language reasons, from checks that each catch one way of going wrong."""
+                preset: Preset | None = None, coverage_check: bool = True) -> tuple[float, list[str], dict]:
+    """0–1 and plain-language reasons, from checks that each catch one way of going wrong.
+    ``coverage_check=False`` leaves 400–700 nm coverage to the caller (a joint estimate judges
+    the photos' union)."""
     warnings: list[str] = []
     score = 1.0
     preset = preset or analysis.scene.preset
@@ -143,14 +159,8 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     sat_core = float(np.mean(clipped[core] > 0.05))
     # Re-render the readout from the estimate and compare with the photo.
     valid = readout.valid
-    pred = np.einsum("bcl,l->bc", matrix, spd)
     meas = readout.values
-    if np.any(valid):
-        p, m = pred[valid], meas[valid]
-        scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
-        residual = float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
-    else:
-        residual = 1.0
+    residual = profile_residual(readout, matrix, spd)
     stats = {"profile_residual": residual, "coverage_400_700": coverage, "saturated_bins": sat_core,
              "geometry_residual": float(analysis.fit.residual)}
     blur = colour_blur_nm(analysis.scene.preset, analysis.scene.preset.light.lobe_sigma, analysis.focal_px)
@@ -173,7 +183,7 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     if sat_core > 0.02:
         warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
         score *= max(0.2, 1.0 - 2.0 * sat_core)
-    if coverage < 0.95:
+    if coverage_check and coverage < 0.95:
         where = coverage_advice(preset, analysis.scene)
         warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — {where}")
         # Squared: the missing part of 400–700 nm comes from the prior alone (lamp 45 mm beside
@@ -237,6 +247,121 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     return float(np.clip(score, 0.0, 1.0)), warnings, stats
 
 
+@dataclass(frozen=True)
+class PhotoReading:
+    """One photo through the pose and readout stages, with what its checks need to know."""
+
+    image: LinearImage
+    reading: Reading
+    camera: str  # the profile's name as the result reports it
+    camera_note: str | None  # why that profile was picked, when the photo did not say
+
+
+def resolved_model(model: SpectralModel | None | str) -> SpectralModel | None:
+    """``model`` as given: "shipped", a path, a loaded model, or None (physics and prior only)."""
+    if model == "shipped":
+        return load_model()
+    return load_model(model) if isinstance(model, (str, Path)) else model
+
+
+def resolved_calibration(calibration: str | Path | Calibration | None) -> Calibration | None:
+    return load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
+
+
+def read_image(image: LinearImage, preset: Preset, camera: str, calibration: Calibration | None,
+               model: SpectralModel | None, *, focal_px: float | None = None, fit: PoseFit | None = None,
+               progress: Progress | None = None, min_coverage_nm: float = MIN_COVERAGE_NM) -> PhotoReading:
+    """The camera profile for the photo, then the pose and readout stages (:mod:`.stages`;
+    ``min_coverage_nm``: the first order's share of 400–700 nm below which it is refused)."""
+    report = progress or (lambda _f, _m: None)
+    cam, generic, name, note = resolve_camera(camera, image, model)
+    if calibration is not None and calibration.sensitivities is not None:
+        cam, generic = solving_camera(cam, generic, calibration)
+        note = None  # the calibration measured the camera: no "not one of the profiles" warning
+    report(0.2, "Finding the disc")
+    posed = pose_photo(image, preset, cam, generic_camera=generic, calibration=calibration, focal_px=focal_px,
+                       fit=fit)
+    report(0.5, "Reading the rainbow")
+    return PhotoReading(image, read_posed(posed, min_coverage_nm=min_coverage_nm), name, note)
+
+
+def photo_checks(photo: PhotoReading, spd: NDArray[np.float64], preset: Preset,
+                 calibration: Calibration | None, coverage_check: bool = True) -> tuple[float, list[str], dict]:
+    """Confidence (0–1), warnings and the checks' numbers for one photo read with ``spd``: the
+    readout checks, then the camera, calibration and processed-file warnings."""
+    analysis, image, camera = photo.reading, photo.image, photo.camera
+    cal = calibration
+    confidence, warnings, stats = _confidence(analysis.readout, analysis.matrix, spd, analysis, image,
+                                              analysis.generic_camera, analysis.focal_source, preset,
+                                              coverage_check)
+    if photo.camera_note:  # says more than the plain "generic camera profile" warning
+        warnings = [w for w in warnings if not w.startswith("generic camera profile")] + [photo.camera_note]
+        confidence *= 1.0 if analysis.generic_camera else 0.85
+    if cal is not None and cal.camera not in ("", AUTO, camera):
+        warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
+                        f"{camera}: its gains are relative to that profile — pick the same camera")
+        confidence *= 0.85
+    if image.processed and cal is None:
+        warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
+                        "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
+                        "is only approximate — shoot RAW, or take one calibration shot of a known lamp with the same "
+                        "camera settings (fixed white balance) and use it")
+        confidence *= PROCESSED_CONFIDENCE
+    elif image.processed and cal.pipeline is None:
+        warnings.append(f"this file was processed by the camera ({image.processed_reason}) but calibration "
+                        f"{cal.name!r} holds per-bin gains only, which cannot undo a colour matrix and tone curve: "
+                        "calibrate again from a photo taken the same way as this one (same file type and settings)")
+        confidence *= PROCESSED_CONFIDENCE
+    elif not image.processed and cal is not None and cal.pipeline is not None:
+        warnings.append(f"calibration {cal.name!r} was made from an in-camera JPEG/HEIC and undoes that camera "
+                        "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
+                        "same kind of file")
+        confidence *= PROCESSED_CONFIDENCE
+    return confidence, warnings, stats
+
+
+def disc_fit(photo: PhotoReading, preset: Preset) -> DiscFit:
+    """Where the disc is in the photo's original pixels."""
+    fit, image, focal_px = photo.reading.fit, photo.image, photo.reading.focal_px
+    s = image.scale
+    return DiscFit(
+        center_px=image.to_original(*fit.center_px),
+        radius_px=preset.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
+        hole_radius_px=preset.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
+        px_per_mm=focal_px / fit.distance_mm * s,
+    )
+
+
+def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, warnings: list[str],
+                    stats: dict, preset: Preset, calibration: Calibration | None, model: SpectralModel | None,
+                    method: str, working_space: str, timing: dict[str, float], camera: str | None = None
+                    ) -> Estimate:
+    """The result of a spectrum with its checks: colour, the disc of ``photo`` and the extra
+    fields (a joint estimate reports its reference photo's, and adds its own)."""
+    spd, std, e_phys = result.spd, result.std, result.physics
+    if result.fallback:
+        warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
+        confidence *= 0.5
+    light = colour.spectral_colour(spd, working_space)
+    if light.out_of_gamut:
+        warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
+    analysis, image = photo.reading, photo.image
+    height, width = image.rgb.shape[:2]
+    return Estimate(
+        spd=spd, spd_std=std, xy=light.xy, cct_k=light.cct_k, duv=light.duv,
+        rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
+        disc=disc_fit(photo, preset), timing_ms=timing, source=str(image.path), preset=preset.name,
+        camera=camera or photo.camera, calibration=None if calibration is None else calibration.name,
+        model_version=(model.version if model else "") + ("" if method == METHOD_MODEL else f" ({method} only)"),
+        working_space=working_space,
+        extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": analysis.focal_source,
+               "lobe_sigma": float(analysis.scene.preset.light.lobe_sigma), "checks": stats,
+               "image_size_px": [width, height],
+               "ring_center_px": list(image.to_original(*analysis.fit.ring_center_px))},
+        wavelength_nm=WAVELENGTHS_NM.copy(),
+    )
+
+
 def estimate_image(
     image: LinearImage,
     *,
@@ -263,80 +388,22 @@ def estimate_image(
     t0 = time.perf_counter()
     report = progress or (lambda _f, _m: None)
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
-    mdl = load_model() if model == "shipped" else (load_model(model) if isinstance(model, (str, Path)) else model)
-    cam, generic, camera, camera_note = resolve_camera(camera, image, mdl)
-    cal = load_calibration(calibration) if isinstance(calibration, (str, Path)) else calibration
-    if cal is not None and cal.sensitivities is not None:
-        cam, generic = solving_camera(cam, generic, cal)
-        camera_note = None  # the calibration measured the camera: no "not one of the profiles" warning
-    report(0.2, "Finding the disc")
-    posed = pose_photo(image, preset_obj, cam, generic_camera=generic, calibration=cal, focal_px=focal_px, fit=fit)
-    report(0.5, "Reading the rainbow")
-    analysis = read_posed(posed)
-    readout, source, focal_px = analysis.readout, analysis.focal_source, analysis.focal_px
+    mdl = resolved_model(model)
+    cal = resolved_calibration(calibration)
+    photo = read_image(image, preset_obj, camera, cal, mdl, focal_px=focal_px, fit=fit, progress=progress)
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
-    matrix = analysis.matrix
-    result = spectrum(analysis, method, mdl, fusion)
-    spd, std, e_phys, unusable = result.spd, result.std, result.physics, result.fallback
-    sigma = analysis.scene.preset.light.lobe_sigma
+    result = spectrum(photo.reading, method, mdl, fusion)
     t3 = time.perf_counter()
     report(0.9, "Colour")
-    confidence, warnings, stats = _confidence(readout, matrix, spd, analysis, image, generic, source, preset_obj)
-    if camera_note:  # says more than the plain "generic camera profile" warning
-        warnings = [w for w in warnings if not w.startswith("generic camera profile")] + [camera_note]
-        confidence *= 1.0 if generic else 0.85
-    if cal is not None and cal.camera not in ("", AUTO, camera):
-        warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
-                        f"{camera}: its gains are relative to that profile — pick the same camera")
-        confidence *= 0.85
-    if image.processed and cal is None:
-        warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
-                        "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "
-                        "is only approximate — shoot RAW, or take one calibration shot of a known lamp with the same "
-                        "camera settings (fixed white balance) and use it")
-        confidence *= PROCESSED_CONFIDENCE
-    elif image.processed and cal.pipeline is None:
-        warnings.append(f"this file was processed by the camera ({image.processed_reason}) but calibration "
-                        f"{cal.name!r} holds per-bin gains only, which cannot undo a colour matrix and tone curve: "
-                        "calibrate again from a photo taken the same way as this one (same file type and settings)")
-        confidence *= PROCESSED_CONFIDENCE
-    elif not image.processed and cal is not None and cal.pipeline is not None:
-        warnings.append(f"calibration {cal.name!r} was made from an in-camera JPEG/HEIC and undoes that camera "
-                        "processing, but this file is unprocessed (raw/linear): use a calibration made from the "
-                        "same kind of file")
-        confidence *= PROCESSED_CONFIDENCE
-    if unusable:
-        warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
-        confidence *= 0.5
-    light = colour.spectral_colour(spd, working_space)
-    if light.out_of_gamut:
-        warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
-    fit = analysis.fit
-    height, width = image.rgb.shape[:2]
-    s = image.scale
-    disc = DiscFit(
-        center_px=image.to_original(*fit.center_px),
-        radius_px=preset_obj.disc.rim_radius_mm * focal_px / fit.distance_mm * s,
-        hole_radius_px=preset_obj.disc.hole_radius_mm * focal_px / fit.distance_mm * s,
-        px_per_mm=focal_px / fit.distance_mm * s,
-    )
+    confidence, warnings, stats = photo_checks(photo, result.spd, preset_obj, cal)
+    timing = {"load": 0.0, **photo.reading.timing_ms, "spectrum": (t3 - t2) * 1e3}
+    estimate = estimate_result(photo, result, confidence, warnings, stats, preset_obj, cal, mdl, method,
+                               working_space, timing)
     t4 = time.perf_counter()
-    timing = {"load": 0.0, **analysis.timing_ms, "spectrum": (t3 - t2) * 1e3, "colour": (t4 - t3) * 1e3,
-              "total": (t4 - t0) * 1e3}
+    estimate.timing_ms.update({"colour": (t4 - t3) * 1e3, "total": (t4 - t0) * 1e3})
     report(1.0, "Done")
-    return Estimate(
-        spd=spd, spd_std=std, xy=light.xy, cct_k=light.cct_k, duv=light.duv,
-        rgb_scene_linear=tuple(float(c) for c in light.rgb), confidence=confidence, warnings=warnings,
-        disc=disc, timing_ms=timing, source=str(image.path), preset=preset_obj.name, camera=camera,
-        calibration=None if cal is None else cal.name,
-        model_version=(mdl.version if mdl else "") + ("" if method == METHOD_MODEL else f" ({method} only)"),
-        working_space=working_space,
-        extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": source,
-               "lobe_sigma": float(sigma), "checks": stats, "image_size_px": [width, height],
-               "ring_center_px": list(image.to_original(*fit.ring_center_px))},
-        wavelength_nm=WAVELENGTHS_NM.copy(),
-    )
+    return estimate
 
 
 def estimate_photo(

@@ -4,6 +4,10 @@ Rows are the valid (bin, channel) features weighted by their noise plus a model-
 the prior is smoothness (second differences), which a lamp's narrow lines violate — the
 learned correction (:mod:`.model`) is there for those. The result is in the photo's own
 units (exposure included); callers peak-normalise.
+
+Each solve has two faces: ``solve_*``/``blend_bands`` work on :class:`Rows` (one photo's, or
+several photos' stacked by :mod:`.joint`), and ``*_solve``/``band_blend`` are the same solves on
+one photo's readout and forward matrix — so a joint estimate of one photo is the single estimate.
 """
 
 from __future__ import annotations
@@ -23,8 +27,9 @@ PRIOR_STRENGTH = 0.3  # weight of the Gaussian prior (1 = fully Bayesian); bench
 PRIOR_JITTER = 1e-3  # added to the prior covariance's diagonal before inverting
 SCALE_BAND_NM = (420.0, 680.0)  # where every camera sees well: sets the prior's scale
 
-__all__ = ["SMOOTHNESS", "GaussianPrior", "fused_solve", "photo_scale", "band_blend", "second_difference", "system",
-           "physics_solve", "prior_solve"]
+__all__ = ["SMOOTHNESS", "GaussianPrior", "Rows", "rows_for", "fused_solve", "photo_scale", "band_blend",
+           "second_difference", "system", "physics_solve", "prior_solve", "solve_physics", "solve_prior",
+           "solve_fused", "blend_bands", "rows_scale", "scale_to"]
 
 
 @dataclass(frozen=True)
@@ -50,13 +55,38 @@ def second_difference(n: int) -> NDArray[np.float64]:
     return d
 
 
+@dataclass(frozen=True)
+class Rows:
+    """The weighted rows of one solve: the SPD's ``n`` columns first, then free columns (per-photo
+    backgrounds, and a joint solve's photo brightnesses) that no prior touches. Every solve below
+    works on rows, so one photo and a stack of photos (:mod:`.joint`) share each solve."""
+
+    a: NDArray[np.float64]  # (m, n + free)
+    y: NDArray[np.float64]  # (m,)
+    scale: float  # the peak feature; 0 where there is no usable data
+    n: int
+
+    @property
+    def spectral(self) -> NDArray[np.float64]:
+        return self.a[:, :self.n]
+
+
+def rows_for(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
+             background: bool = True, floor: NDArray[np.float64] | None = None) -> Rows:
+    """Weighted rows of one photo's valid features (see :func:`system`)."""
+    return Rows(*system(readout, matrix, gain, background, floor), n=matrix.shape[-1])
+
+
 def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
-           background: bool = True) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+           background: bool = True, floor: NDArray[np.float64] | None = None
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Weighted rows (A, y) of the valid features and the data scale (peak feature).
 
     With ``background`` the last six columns are ± a constant per channel: ambient light and the
     dark floor an integer photo gets from noise clipped at zero are flat in λ₁, unlike any
     lamp seen through a camera, so they separate cleanly instead of becoming a fake IR tail.
+    ``floor`` (per bin) multiplies the model-error floor: a joint estimate trusts a photo's
+    features at the edge of its tracks less where another photo reads those wavelengths well.
     """
     values = readout.values if gain is None else readout.values / np.where(gain > 0, gain, 1.0)
     valid = readout.valid
@@ -69,26 +99,53 @@ def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float
     if scale <= 0:
         return a, y, 0.0
     noise = readout.noise[valid].reshape(-1)
-    sigma = np.sqrt(noise ** 2 + (MODEL_ERROR_FLOOR * scale) ** 2)
+    model_error = MODEL_ERROR_FLOOR * scale
+    if floor is not None:
+        model_error = model_error * np.repeat(floor[valid], 3)
+    sigma = np.sqrt(noise ** 2 + model_error ** 2)
     return a / sigma[:, None], y / sigma, scale
 
 
-def physics_solve(readout: Readout, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
-                  gain: NDArray[np.float64] | None = None, background: bool = True) -> NDArray[np.float64]:
-    """Non-negative SPD (81,) minimising ‖A E − y‖² + λ‖D₂E‖² (λ scaled to the data), with
-    free per-channel background terms (see :func:`system`)."""
-    n = matrix.shape[-1]
-    a, y, scale = system(readout, matrix, gain, background)
-    if scale <= 0 or a.shape[0] == 0:
-        return np.zeros(n)
+def solve_physics(rows: Rows, smoothness: float = SMOOTHNESS) -> NDArray[np.float64]:
+    """Non-negative x (the SPD's n values, then the free columns) minimising ‖A x − y‖² +
+    λ‖D₂E‖², λ scaled to the data; zeros where there is no data."""
+    n, a, y = rows.n, rows.a, rows.y
+    if rows.scale <= 0 or a.shape[0] == 0:
+        return np.zeros(a.shape[1])
     gram = a.T @ a
     d2 = second_difference(n)
     reg = np.zeros_like(gram)
     reg[:n, :n] = d2.T @ d2
     lam = smoothness * np.trace(gram[:n, :n]) / np.trace(reg[:n, :n])
     ridge = 1e-9 * np.trace(gram[:n, :n]) / n
-    x = nnls_normal(gram + lam * reg + ridge * np.eye(gram.shape[0]), a.T @ y)
-    return x[:n]
+    return nnls_normal(gram + lam * reg + ridge * np.eye(gram.shape[0]), a.T @ y)
+
+
+def solve_prior(rows: Rows, prior: GaussianPrior, strength: float = PRIOR_STRENGTH,
+                precision: NDArray[np.float64] | None = None, smoothness: float = SMOOTHNESS) -> NDArray[np.float64]:
+    """x of :func:`solve_physics` under the Gaussian prior (see :func:`prior_solve`)."""
+    n = rows.n
+    first = solve_physics(rows, smoothness)
+    spd = first[:n]
+    band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
+    s = float(spd[band].max()) or float(spd.max())
+    if s <= 0:
+        return first
+    a, y = rows.a, rows.y
+    prec = prior.precision() if precision is None else precision
+    gram = a.T @ a
+    rhs = a.T @ y
+    gram[:n, :n] += strength * prec / (s * s)
+    rhs[:n] += strength * (prec @ prior.mean) / s
+    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
+    return nnls_normal(gram, rhs)
+
+
+def physics_solve(readout: Readout, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
+                  gain: NDArray[np.float64] | None = None, background: bool = True) -> NDArray[np.float64]:
+    """Non-negative SPD (81,) minimising ‖A E − y‖² + λ‖D₂E‖² (λ scaled to the data), with
+    free per-channel background terms (see :func:`system`)."""
+    return solve_physics(rows_for(readout, matrix, gain, background), smoothness)[:matrix.shape[-1]]
 
 
 def prior_solve(readout: Readout, matrix: NDArray[np.float64], prior: GaussianPrior,
@@ -101,42 +158,39 @@ def prior_solve(readout: Readout, matrix: NDArray[np.float64], prior: GaussianPr
     camera sees well; the prior then fills what the camera cannot see (its blind tails) with
     what lamps usually do there, instead of extrapolating a curve into the dark.
     """
-    n = matrix.shape[-1]
-    first = physics_solve(readout, matrix, smoothness, gain=gain)
-    band = (WAVELENGTHS_NM >= SCALE_BAND_NM[0]) & (WAVELENGTHS_NM <= SCALE_BAND_NM[1])
-    s = float(first[band].max()) or float(first.max())
-    if s <= 0:
-        return first
-    a, y, _ = system(readout, matrix, gain)
-    prec = prior.precision() if precision is None else precision
-    gram = a.T @ a
-    rhs = a.T @ y
-    gram[:n, :n] += strength * prec / (s * s)
-    rhs[:n] += strength * (prec @ prior.mean) / s
-    gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
-    return nnls_normal(gram, rhs)[:n]
+    return solve_prior(rows_for(readout, matrix, gain), prior, strength, precision, smoothness)[:matrix.shape[-1]]
 
 
-def _scale_to(a: NDArray[np.float64], y: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+def scale_to(a: NDArray[np.float64], y: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
     """Least-squares factor that makes ``spd`` reproduce the weighted features ``y``."""
     pred = a @ spd
     return float(pred @ y) / max(float(pred @ pred), 1e-300)
+
+
+def rows_scale(rows: Rows, spd: NDArray[np.float64]) -> float:
+    """The factor that puts a peak-normalised SPD into the rows' units; 0 where they cannot tell."""
+    if rows.scale <= 0 or rows.a.shape[0] == 0:
+        return 0.0
+    s = scale_to(rows.spectral, rows.y, np.clip(np.asarray(spd, dtype=np.float64), 0.0, None))
+    return s if s > 0 else 0.0
 
 
 def photo_scale(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64],
                 gain: NDArray[np.float64] | None = None) -> float:
     """The factor that puts a peak-normalised SPD into the photo's units (what the features say
     its brightness is); 0 where the photo cannot tell."""
-    a, y, scale = system(readout, matrix, gain, background=False)
-    if scale <= 0 or a.shape[0] == 0:
-        return 0.0
-    s = _scale_to(a, y, np.clip(np.asarray(spd, dtype=np.float64), 0.0, None))
-    return s if s > 0 else 0.0
+    return rows_scale(rows_for(readout, matrix, gain, background=False), spd)
 
 
 def band_blend(readout: Readout, matrix: NDArray[np.float64], learned: NDArray[np.float64],
                physics: NDArray[np.float64], weight: NDArray[np.float64], gain: NDArray[np.float64] | None = None
                ) -> NDArray[np.float64]:
+    """w(λ)·learned + (1 − w(λ))·physics, non-negative and peak-normalised (see :func:`blend_bands`)."""
+    return blend_bands(rows_for(readout, matrix, gain, background=False), learned, physics, weight)
+
+
+def blend_bands(rows: Rows, learned: NDArray[np.float64], physics: NDArray[np.float64],
+                weight: NDArray[np.float64]) -> NDArray[np.float64]:
     """w(λ)·learned + (1 − w(λ))·physics, non-negative and peak-normalised.
 
     Each estimate is first put at the brightness that best reproduces the photo's features, so
@@ -150,7 +204,7 @@ def band_blend(readout: Readout, matrix: NDArray[np.float64], learned: NDArray[n
         spd = np.nan_to_num(np.clip(np.asarray(spd, dtype=np.float64), 0.0, None), nan=0.0, posinf=0.0)
         peak = float(spd.max())
         parts.append(spd / peak if peak > 0 else spd)
-    scales = [photo_scale(readout, matrix, p, gain) for p in parts]
+    scales = [rows_scale(rows, p) for p in parts]
     if all(sc > 0 for sc in scales):
         parts = [p * sc for p, sc in zip(parts, scales)]
     out = w * parts[0] + (1.0 - w) * parts[1]
@@ -160,6 +214,13 @@ def band_blend(readout: Readout, matrix: NDArray[np.float64], learned: NDArray[n
 
 def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.float64], std: NDArray[np.float64],
                 strength: float, floor: float, gain: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior
+    (see :func:`solve_fused`)."""
+    return solve_fused(rows_for(readout, matrix, gain), mean, std, strength, floor)
+
+
+def solve_fused(rows: Rows, mean: NDArray[np.float64], std: NDArray[np.float64], strength: float,
+                floor: float) -> NDArray[np.float64]:
     """Non-negative MAP estimate with the learned model's SPD and uncertainty as the prior.
 
     The network knows what lamps look like where the camera is nearly blind; the photo knows
@@ -167,12 +228,11 @@ def fused_solve(readout: Readout, matrix: NDArray[np.float64], mean: NDArray[np.
     below ``floor``, peak-normalised units) and solving against the features keeps the estimate
     consistent with the photo — the physics decides where the data is strong.
     """
-    n = matrix.shape[-1]
+    n, a, y = rows.n, rows.a, rows.y
     mean = np.clip(np.asarray(mean, dtype=np.float64), 0.0, None)
-    a, y, scale = system(readout, matrix, gain)
-    if scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
+    if rows.scale <= 0 or a.shape[0] == 0 or mean.max() <= 0:
         return mean
-    s = _scale_to(a[:, :n], y, mean)
+    s = scale_to(a[:, :n], y, mean)
     if not s > 0:
         return mean
     sig = np.maximum(np.asarray(std, dtype=np.float64), floor) * s
