@@ -220,6 +220,14 @@ def test_correlated_draws_give_wider_ranges_than_independent_ones() -> None:
     assert cor[1] - cor[0] > 1.5 * (ind[1] - ind[0])
 
 
+def test_the_factor_on_spd_std_is_the_same_as_a_larger_std_and_is_recorded() -> None:
+    spd, std = illuminant("FL11"), np.full(N_BANDS, 0.02)
+    scaled = result.rendition(spd, std, std_scale=1.5)
+    assert scaled["ranges"] == result.rendition(spd, 1.5 * std, std_scale=1.0)["ranges"]
+    assert scaled["std_scale"] == 1.5 and "1.5 × spd_std" in scaled["interval"]
+    assert result.rendition(spd, std)["std_scale"] == uncertainty.STD_SCALE
+
+
 def test_correlated_normals_have_unit_variance_and_the_asked_correlation() -> None:
     z = uncertainty.correlated_normals(20000, seed=3, correlation_nm=20.0)
     assert z.std(axis=0) == pytest.approx(np.ones(N_BANDS), abs=0.03)

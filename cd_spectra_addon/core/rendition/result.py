@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import CDSpectraError
 from ..spectra.colour import cct_duv
 from .figures import Figures, figures
-from .uncertainty import CORRELATION_NM, draw_spds
+from .uncertainty import CORRELATION_NM, STD_SCALE, draw_spds
 
 __all__ = ["DEFAULT_SAMPLES", "DEFAULT_SEED", "INTERVAL_PERCENT", "TOO_WIDE", "NOT_COMPUTED", "CCT_RANGE_K",
            "CIE_13_3_MAX_DUV", "HEADLINE", "Rendition", "rendition", "rendition_of", "figure_values", "compare_rendition",
@@ -85,6 +85,7 @@ class Rendition:
     samples: int = 0
     seed: int = DEFAULT_SEED
     correlation_nm: float = CORRELATION_NM
+    std_scale: float = STD_SCALE
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"defined": True, **self.values,
@@ -93,9 +94,10 @@ class Rendition:
         if self.samples:
             out.update(ranges=self.ranges, too_wide=list(self.too_wide),
                        interval=(f"{INTERVAL_PERCENT[0]:g}–{INTERVAL_PERCENT[1]:g} % of {self.samples} SPDs drawn "
-                                 f"from spd ± spd_std, correlated over {self.correlation_nm:g} nm, seed {self.seed}"),
+                                 f"from spd ± {self.std_scale:g} × spd_std, correlated over {self.correlation_nm:g} nm, "
+                                 f"seed {self.seed}"),
                        samples=self.samples, seed=self.seed, correlation_nm=self.correlation_nm,
-                       interval_percent=list(INTERVAL_PERCENT))
+                       std_scale=self.std_scale, interval_percent=list(INTERVAL_PERCENT))
         out.update(notes=list(self.notes), not_computed=dict(NOT_COMPUTED))
         return out
 
@@ -121,16 +123,19 @@ def _defined_for(spd: NDArray[np.float64]) -> tuple[str | None, list[str]]:
 
 
 def rendition(spd: ArrayLike, std: ArrayLike | None = None, *, samples: int = DEFAULT_SAMPLES,
-              seed: int = DEFAULT_SEED, correlation_nm: float = CORRELATION_NM) -> dict[str, Any]:
+              seed: int = DEFAULT_SEED, correlation_nm: float = CORRELATION_NM,
+              std_scale: float = STD_SCALE) -> dict[str, Any]:
     """The estimate's ``"rendition"`` JSON object: figures of ``spd`` (81 samples), and with its
-    one-sigma ``std`` their ranges from ``samples`` drawn SPDs. ``{"defined": false, "reason"}``
-    for a light the figures do not apply to. CDSpectraError for an SPD no colour can be computed of."""
-    result = rendition_of(spd, std, samples=samples, seed=seed, correlation_nm=correlation_nm)
+    one-sigma ``std`` their ranges from ``samples`` drawn SPDs (:mod:`.uncertainty`).
+    ``{"defined": false, "reason"}`` for a light the figures do not apply to. CDSpectraError for
+    an SPD no colour can be computed of."""
+    result = rendition_of(spd, std, samples=samples, seed=seed, correlation_nm=correlation_nm, std_scale=std_scale)
     return result.to_json() if isinstance(result, Rendition) else _undefined(result)
 
 
 def rendition_of(spd: ArrayLike, std: ArrayLike | None = None, *, samples: int = DEFAULT_SAMPLES,
-                 seed: int = DEFAULT_SEED, correlation_nm: float = CORRELATION_NM) -> Rendition | str:
+                 seed: int = DEFAULT_SEED, correlation_nm: float = CORRELATION_NM,
+                 std_scale: float = STD_SCALE) -> Rendition | str:
     """:class:`Rendition`, or the reason the figures are undefined for this light."""
     mean = np.asarray(spd, dtype=np.float64)
     if mean.ndim != 1:
@@ -141,7 +146,8 @@ def rendition_of(spd: ArrayLike, std: ArrayLike | None = None, *, samples: int =
     n = int(samples) if std is not None else 0
     if std is not None and n < 10:
         raise CDSpectraError(f"ranges need at least 10 drawn SPDs; got {samples}")
-    batch = mean[None] if n == 0 else np.concatenate([mean[None], draw_spds(mean, std, n, seed, correlation_nm)])
+    batch = mean[None] if n == 0 else np.concatenate([mean[None], draw_spds(mean, std, n, seed, correlation_nm,
+                                                                             std_scale)])
     peak = batch.max(axis=1)
     batch = batch[peak > 0]  # a draw clipped to nothing is no light: left out (the estimate itself has a peak)
     f = figures(batch)
@@ -157,7 +163,8 @@ def rendition_of(spd: ArrayLike, std: ArrayLike | None = None, *, samples: int =
     return Rendition(values={k: _json(v) for k, v in central.items()},
                      cvg_reference_hue_deg=_json(f.fidelity.cvg_reference_hue[0]),
                      cvg_test_xy=_json(f.fidelity.cvg_test[0]), ranges=ranges, too_wide=tuple(too_wide),
-                     notes=tuple(notes), samples=n, seed=int(seed), correlation_nm=float(correlation_nm))
+                     notes=tuple(notes), samples=n, seed=int(seed), correlation_nm=float(correlation_nm),
+                     std_scale=float(std_scale))
 
 
 def _quantile(ordered: NDArray[np.float64], count: NDArray[np.int64], q: float) -> NDArray[np.float64]:

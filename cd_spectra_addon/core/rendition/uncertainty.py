@@ -4,11 +4,12 @@ An estimate gives a one-sigma ``spd_std`` per 5 nm sample but no covariance. Dra
 independently per sample, the errors would average away in every integral a figure takes (CRI,
 TM-30 and chromaticity all integrate over tens of nm) and the ranges would come out far
 narrower than the real errors, which are smooth: a misplaced bump, a tilted tail. So the
-deviations are drawn as a smooth Gaussian process: ``spd + spd_std · z`` with ``z`` of unit
+deviations are drawn as a smooth Gaussian process: ``spd + k · spd_std · z`` with ``z`` of unit
 variance and a squared-exponential correlation over wavelength of length
-:data:`CORRELATION_NM`, clipped at zero (a light has no negative power). The length was chosen
-on synthetic photos, not on the real lamps the coverage is then measured on
-(``training/evaluation/rendition_coverage.py``, bench/rendition.md).
+:data:`CORRELATION_NM`, clipped at zero (a light has no negative power). The length and the
+factor ``k`` (:data:`STD_SCALE`: how far the network's one-sigma understates the error that
+reaches these figures) were chosen on synthetic photos, not on the real lamps the coverage is
+then measured on (``training/evaluation/rendition_coverage.py``, bench/rendition.md).
 """
 
 from __future__ import annotations
@@ -21,9 +22,10 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import CDSpectraError
 from ..spectra.grid import N_BANDS, WAVELENGTHS_NM
 
-__all__ = ["CORRELATION_NM", "correlated_normals", "draw_spds"]
+__all__ = ["CORRELATION_NM", "STD_SCALE", "correlated_normals", "draw_spds"]
 
 CORRELATION_NM = 40.0
+STD_SCALE = 1.0
 
 
 @lru_cache(maxsize=8)
@@ -48,7 +50,7 @@ def correlated_normals(n: int, seed: int, correlation_nm: float = CORRELATION_NM
 
 
 def draw_spds(spd: ArrayLike, std: ArrayLike, n: int, seed: int = 0,
-              correlation_nm: float = CORRELATION_NM, scale: float = 1.0) -> NDArray[np.float64]:
+              correlation_nm: float = CORRELATION_NM, scale: float = STD_SCALE) -> NDArray[np.float64]:
     """(n, 81) SPDs around ``spd`` with per-wavelength one-sigma ``std`` (times ``scale``),
     correlated over ``correlation_nm`` and clipped at zero; the same ``seed``, the same draws."""
     mean = np.asarray(spd, dtype=np.float64)
