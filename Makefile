@@ -23,7 +23,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_camera_files.py tests/test_camera_pipeline.py tests/test_images.py tests/test_export_formats.py \
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
 	tests/test_capture_pose.py tests/test_general_pose.py tests/test_pose_recovery.py tests/test_disc_window.py tests/test_camera_fit.py \
-	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py
+	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py tests/test_rendition.py
 
 # The tests run on both cores: pytest-xdist with one worker per core, each test file on one worker
 # (--dist loadfile: a module's fixtures, e.g. its rendered capture or the hostile-input runs, are
