@@ -228,6 +228,18 @@ def test_the_factor_on_spd_std_is_the_same_as_a_larger_std_and_is_recorded() -> 
     assert result.rendition(spd, std)["std_scale"] == uncertainty.STD_SCALE
 
 
+def test_a_fidelity_figure_near_100_has_a_range_up_to_100() -> None:
+    """A near-Planckian estimate is near the fidelity figures' maximum: its drawn SPDs all score
+    lower, so the quantiles alone would end at the estimate and miss a truer lamp above it."""
+    planck = illuminant("A")
+    data = result.rendition(planck * (1 + 0.004 * np.linspace(-1, 1, N_BANDS)), np.full(N_BANDS, 0.03))
+    for key in ("cri_ra", "tm30_rf"):
+        assert data[key] < 100 and data["ranges"][key][1] == 100.0
+    assert data["ranges"]["tm30_rg"][1] != 100.0  # Rg has no ceiling
+    fl11 = result.rendition(illuminant("FL11"), np.full(N_BANDS, 0.02))  # Ra 83, far below: untouched
+    assert fl11["ranges"]["cri_ra"][1] < 95
+
+
 def test_correlated_normals_have_unit_variance_and_the_asked_correlation() -> None:
     z = uncertainty.correlated_normals(20000, seed=3, correlation_nm=20.0)
     assert z.std(axis=0) == pytest.approx(np.ones(N_BANDS), abs=0.03)

@@ -4,7 +4,8 @@ estimate's uncertainty allows, and what they are in the JSON, the text and a com
 :func:`rendition` computes the figures of the estimate's SPD and of SPDs drawn from its
 uncertainty (:mod:`.uncertainty`) in one batch (:mod:`.figures`). Each figure's range is the
 5–95 % interval of the drawn SPDs' values, widened to include the estimate's own value (an
-asymmetric error can put it just outside): a 90 % interval, as the ≥ 90 % coverage asked of it
+asymmetric error can put it just outside) and, for a fidelity figure near its ceiling of 100,
+up to 100 (:data:`CEILING`): a 90 % interval, as the ≥ 90 % coverage asked of it
 on real lamps. A range wider than :data:`TOO_WIDE` does not tell a good lamp from a poor one
 and is flagged instead of being read as a value.
 
@@ -26,7 +27,7 @@ from ..spectra.colour import cct_duv
 from .figures import Figures, figures
 from .uncertainty import CORRELATION_NM, STD_SCALE, draw_spds
 
-__all__ = ["DEFAULT_SAMPLES", "DEFAULT_SEED", "INTERVAL_PERCENT", "TOO_WIDE", "NOT_COMPUTED", "CCT_RANGE_K",
+__all__ = ["DEFAULT_SAMPLES", "DEFAULT_SEED", "INTERVAL_PERCENT", "TOO_WIDE", "CEILING", "NOT_COMPUTED", "CCT_RANGE_K",
            "CIE_13_3_MAX_DUV", "HEADLINE", "Rendition", "rendition", "rendition_of", "figure_values", "compare_rendition",
            "summary_text", "format_figure"]
 
@@ -40,6 +41,14 @@ TOO_WIDE: dict[str, float] = {
     "tm30_rf_hj": 30.0, "tm30_rcs_hj": 30.0, "tm30_rhs_hj": 0.3,
     "peak_wavelength_nm": 50.0, "dominant_wavelength_nm": 30.0,
 }
+# Fidelity figures score the reference illuminant itself 100 and anything else less, so an
+# estimate near 100 (a near-Planckian lamp) is near a maximum: almost every drawn SPD scores
+# lower, the 95 % point of the draws sits at the estimate, and a truth between the estimate and
+# 100 — closer to its own reference — falls outside. Where 100 lies within the draws' spread
+# below the estimate (mirrored above it), the range reaches 100. Rg and the chroma shifts have
+# no such ceiling.
+CEILING: dict[str, float] = {"cri_ra": 100.0, "cri_r9": 100.0, "cri_ri": 100.0, "tm30_rf": 100.0,
+                             "cie2017_rf": 100.0, "tm30_rf_hj": 100.0}
 NOT_COMPUTED: dict[str, str] = {
     "cri_r15": "CIE 13.3 defines R1–R14; R15 (JIS Z 8726's Japanese skin sample) is not in colour-science's "
                "test colour samples, so it is not computed",
@@ -156,7 +165,7 @@ def rendition_of(spd: ArrayLike, std: ArrayLike | None = None, *, samples: int =
     ranges, too_wide = {}, []
     if n:
         for key, arr in values.items():
-            lo, hi, wide = _range(arr[1:], central[key], TOO_WIDE[key])
+            lo, hi, wide = _range(arr[1:], central[key], TOO_WIDE[key], CEILING.get(key))
             ranges[key] = [_json(lo), _json(hi)]
             if wide:
                 too_wide.append(key)
@@ -178,16 +187,20 @@ def _quantile(ordered: NDArray[np.float64], count: NDArray[np.int64], q: float) 
     return np.where(count > 0, low + (pos - below) * (high - low), np.nan)
 
 
-def _range(draws: NDArray[np.float64], central: NDArray[np.float64], limit: float
+def _range(draws: NDArray[np.float64], central: NDArray[np.float64], limit: float, ceiling: float | None = None
            ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]:
     """(low, high, too wide?) of a figure's draws (m,) or (m, k): the interval's quantiles widened
-    to include the central value; too wide where wider than ``limit``, or where more than a tenth
-    of the draws have no value (a hue bin left empty, a light that is no longer white)."""
+    to include the central value, and up to the figure's ``ceiling`` where the estimate is closer
+    to it than the draws spread below (see :data:`CEILING`); too wide where wider than ``limit``,
+    or where more than a tenth of the draws have no value (a hue bin left empty, a light that is no
+    longer white)."""
     finite = np.isfinite(draws)
     count = finite.sum(axis=0)
     ordered = np.sort(np.where(finite, draws, np.nan), axis=0)
     lo = np.fmin(_quantile(ordered, count, INTERVAL_PERCENT[0] / 100), central)
     hi = np.fmax(_quantile(ordered, count, INTERVAL_PERCENT[1] / 100), central)
+    if ceiling is not None:
+        hi = np.where(ceiling - central <= central - lo, np.fmax(hi, ceiling), hi)
     missing = count < 0.9 * draws.shape[0]
     wide = bool(np.any(missing) or np.any(~np.isfinite(hi - lo)) or np.any(hi - lo > limit))
     return lo, hi, wide
