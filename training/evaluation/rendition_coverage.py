@@ -176,7 +176,7 @@ def _errors(row: dict[str, Any]) -> list[str]:
              "|---|---|---|---|---|---|---|"]
     for k in FIGURES:
         r = row[k]
-        lines.append(f"| {LABELS[k]} | {r['n']} | {100 * r['coverage']:.0f} % | {_fmt(r['median_abs_error'])} | "
+        lines.append(f"| {LABELS[k]} | {r['n']} | {100 * r['coverage']:.1f} % | {_fmt(r['median_abs_error'])} | "
                      f"{_fmt(r['mean_abs_error'])} | {_fmt(r['median_width'])} | {100 * r['too_wide']:.0f} % "
                      f"(> {TOO_WIDE[k]:g}) |")
     return lines
