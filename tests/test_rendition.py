@@ -212,8 +212,8 @@ def test_an_uncertain_estimate_is_flagged_not_trusted() -> None:
 
 
 def test_correlated_draws_give_wider_ranges_than_independent_ones() -> None:
-    """Why the draws are correlated: independent errors per 5 nm sample average out in the
-    integrals behind every figure, so they would understate its range."""
+    """Independent errors per 5 nm sample average out in the integrals behind every figure; a
+    correlated error does not. (Which one covers the truth is measured: make eval-rendition.)"""
     spd, std = illuminant("FL11"), np.full(N_BANDS, 0.05)
     ind = result.rendition(spd, std, correlation_nm=0.0)["ranges"]["cri_ra"]
     cor = result.rendition(spd, std, correlation_nm=20.0)["ranges"]["cri_ra"]

@@ -103,8 +103,9 @@ class Rendition:
         if self.samples:
             out.update(ranges=self.ranges, too_wide=list(self.too_wide),
                        interval=(f"{INTERVAL_PERCENT[0]:g}–{INTERVAL_PERCENT[1]:g} % of {self.samples} SPDs drawn "
-                                 f"from spd ± {self.std_scale:g} × spd_std, correlated over {self.correlation_nm:g} nm, "
-                                 f"seed {self.seed}"),
+                                 f"from spd ± {self.std_scale:g} × spd_std, "
+                                 + (f"correlated over {self.correlation_nm:g} nm" if self.correlation_nm > 0
+                                    else "independent per 5 nm sample") + f", seed {self.seed}"),
                        samples=self.samples, seed=self.seed, correlation_nm=self.correlation_nm,
                        std_scale=self.std_scale, interval_percent=list(INTERVAL_PERCENT))
         out.update(notes=list(self.notes), not_computed=dict(NOT_COMPUTED))
