@@ -32,7 +32,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 PYTEST_WORKERS ?= 2
 PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -155,6 +155,13 @@ bake-cameras: setup
 diagrams: setup
 	$(PY) tools/design_setups.py --check
 	$(PY) tools/draw_setups.py --out docs/setups
+
+# README's picture of the Result panel's TM-30 colour vector graphic: the demo photo's estimate,
+# drawn by the core function the panel draws it with.
+vector-graphic: setup
+	@mkdir -p out/demo
+	$(PY) -m cd_spectra_addon estimate samples/cd_photo.jpg --json out/demo/result.json
+	$(PY) tools/draw_vector_graphic.py out/demo/result.json docs/rendition/vector_graphic.png
 
 clean:
 	rm -rf out build dist .pytest_cache
