@@ -328,12 +328,15 @@ def test_any_spd_gives_finite_json_or_a_reason(spd: np.ndarray, sigma: float) ->
         with pytest.raises(CDSpectraError):
             result.rendition(spd)
         return
-    data = result.rendition(spd, np.full(N_BANDS, sigma) * spd.max())
+    data = result.rendition(spd, np.full(N_BANDS, sigma) * spd.max(), samples=20)  # 20 draws: the same path, 4× faster
     json.dumps(data, allow_nan=False)  # no NaN or Inf reaches the JSON
     if data["defined"]:
         for key in result.HEADLINE:
             lo, hi = data["ranges"][key]
-            assert lo <= data[key] <= hi
+            if data[key] is None:  # e.g. Rg of a few lines that leave TM-30's hue bins empty
+                assert lo is None and hi is None and key in data["too_wide"]
+            else:
+                assert lo <= data[key] <= hi
         assert -1000 < data["cri_ra"] <= 100.0 + 1e-9 and 0.0 < data["tm30_rf"] <= 100.0 + 1e-9
     else:
         assert data["reason"]
