@@ -102,7 +102,10 @@ def blackbody_spd(temperature_k: float) -> list[float]:
 
 
 def fake_estimate(spd: list[float], **extra: Any) -> dict[str, Any]:
-    """An estimate as Estimate.to_json() gives it, for tests of everything after the estimator."""
+    """An estimate as Estimate.to_json() gives it, for tests of everything after the estimator
+    (its colour rendition computed by the core from the SPD and a 0.01 uncertainty)."""
+    from cd_spectra_addon.core.rendition.result import rendition
+
     return {
         "source": "/photos/cd_under_lamp.jpg",
         "wavelength_nm": [380.0 + 5.0 * i for i in range(81)],
@@ -122,6 +125,7 @@ def fake_estimate(spd: list[float], **extra: Any) -> dict[str, Any]:
         "camera": "Canon_EOS_5D_Mark_III",
         "calibration": None,
         "model_version": "test-model",
+        "rendition": rendition(list(spd), [0.01] * 81),
         **extra,
     }
 

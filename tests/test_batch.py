@@ -58,3 +58,14 @@ def test_a_registered_decoder_runs_on_the_calling_thread(tmp_path: Path) -> None
     finally:
         images.unregister_decoder(decoder)
     assert seen and all(name == threading.current_thread().name for name in seen)
+
+
+def test_a_bulk_run_can_skip_the_rendition_figures() -> None:
+    """``rendition=False`` (the CLI's --no-rendition) reaches every estimate of a batch: no figures,
+    no time spent on them; by default each estimate has them, timed."""
+    options = dict(preset="cd-default", model=None, method="prior")
+    bare, = estimate_photos([SAMPLE], rendition=False, **options)
+    assert bare.rendition is None and "rendition" not in bare.timing_ms and "rendition" not in bare.to_json()
+    full, = estimate_photos([SAMPLE], **options)
+    assert full.rendition["defined"] and full.timing_ms["rendition"] > 0
+    assert np.array_equal(full.spd, bare.spd)

@@ -23,9 +23,10 @@ FAKE_ESTIMATOR = textwrap.dedent('''
     import numpy as np
     from cd_spectra_addon.core.errors import PhotoError
     from cd_spectra_addon.core.inverse.result import DiscFit, Estimate
+    from cd_spectra_addon.core.rendition.result import rendition as rendition_json
 
     def estimate_photo(path, *, preset="cd-default", camera="Canon_EOS_5D_Mark_III", calibration=None,
-                       working_space="Linear Rec.709", progress=None):
+                       working_space="Linear Rec.709", progress=None, rendition=True):
         if "bad" in path:
             raise PhotoError("the photo is completely black\\n(check the lens cap)")
         if "crash" in path:  # a bug deep in the estimator (make eval once met one: a zero pivot)
@@ -37,7 +38,8 @@ FAKE_ESTIMATOR = textwrap.dedent('''
         return Estimate(spd=spd, spd_std=np.full(81, 0.01), xy=(0.4, 0.4), cct_k=t, duv=0.0,
                         rgb_scene_linear=(1.0, 0.8, 0.6), confidence=0.9, warnings=[],
                         disc=DiscFit((10.0, 10.0), 8.0), timing_ms={"total": 1.0}, source=path,
-                        preset=preset, camera=camera, calibration=calibration, model_version="fake")
+                        preset=preset, camera=camera, calibration=calibration, model_version="fake",
+                        rendition=rendition_json(spd, np.full(81, 0.01)) if rendition else None)
 
     module = types.ModuleType("cd_spectra_addon.core.inverse.estimate")
     module.estimate_photo = estimate_photo
@@ -168,6 +170,26 @@ def test_default_output_is_a_summary_for_people(tmp_path: Path) -> None:
     assert photos[1] in lines
     assert lines[-1] == f"wrote {out}"
     assert not any(line.lstrip().startswith("{") for line in lines)  # no JSON for people
+
+
+def test_summary_shows_colour_rendition_with_its_ranges(tmp_path: Path) -> None:
+    """What a meter shows first — Ra, R9, Rf, Rg — each with its 90 % range, in the summary and the
+    JSON; ``--no-rendition`` leaves the figures out of both (a bulk run that wants spectra)."""
+    photos = _photos(tmp_path, "a.jpg")
+    proc = run_cli("estimate", *photos, "--json", "-")
+    data = json.loads(proc.stdout)
+    rendition = data["rendition"]
+    assert rendition["defined"] and {"cri_ra", "cri_r9", "tm30_rf", "tm30_rg", "ranges", "too_wide"} <= rendition.keys()
+    lo, hi = rendition["ranges"]["cri_ra"]
+    proc = run_cli("estimate", *photos)
+    line = next(ln for ln in proc.stdout.splitlines() if ln.lstrip().startswith("Ra "))
+    assert line.startswith(f"  Ra {rendition['cri_ra']:.0f} [{lo:.0f}, {hi:.0f}]") and ", Rf " in line and ", Rg " in line
+    assert "TLCI not computed" in proc.stdout
+    proc = run_cli("estimate", *photos, "--no-rendition", "--json", "-")
+    assert proc.returncode == 0, proc.stderr
+    assert "rendition" not in json.loads(proc.stdout)
+    proc = run_cli("estimate", *photos, "--no-rendition")
+    assert not any(ln.lstrip().startswith("Ra ") for ln in proc.stdout.splitlines())
 
 
 def test_summary_shows_warnings_and_a_missing_cct() -> None:

@@ -215,6 +215,29 @@ def test_compare_gives_the_cores_metrics(tmp_path: Path, result_file: Path) -> N
     assert "  delta u'v': 0" in proc.stdout
 
 
+def test_compare_gives_the_rendition_differences(tmp_path: Path, result_file: Path) -> None:
+    """Each rendition figure against the meter's: the difference and whether the meter's value lies
+    in the estimate's range; an estimate without rendition is scored on its SPD."""
+    from cd_spectra_addon.core.rendition.result import compare_rendition
+
+    results = json.loads(result_file.read_text())
+    reference = tmp_path / "meter.csv"
+    spd = np.asarray(results[0]["spd"])
+    reference.write_text("wavelength_nm,meter\n" + "".join(f"{w},{v}\n" for w, v in zip(WAVELENGTHS_NM, spd)))
+    proc = run_cli("compare", str(result_file), str(reference), "--json")
+    rows = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert rows[0]["rendition"]["difference"]["cri_ra"] == pytest.approx(0.0, abs=1e-9)
+    assert rows[0]["rendition"]["within_range"]["tm30_rf"] is True
+    assert rows[1]["rendition"] == json.loads(json.dumps(compare_rendition(results[1]["rendition"], spd)))
+    proc = run_cli("compare", str(result_file), str(reference))
+    assert "    Ra: " in proc.stdout and "in range" in proc.stdout
+    for data in results:
+        del data["rendition"]
+    result_file.write_text(json.dumps(results))
+    proc = run_cli("compare", str(result_file), str(reference), "--json")
+    assert json.loads(proc.stdout.splitlines()[0])["rendition"]["difference"]["tm30_rg"] == pytest.approx(0.0, abs=1e-9)
+
+
 def test_compare_refuses_an_unreadable_reference(tmp_path: Path, result_file: Path) -> None:
     bad = tmp_path / "meter.csv"
     bad.write_text("this is not a table\n")

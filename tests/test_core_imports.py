@@ -27,7 +27,7 @@ FORBIDDEN = ("bpy", "torch")
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("numerics",),
     ("photo", "spectra"),
-    ("scene",),
+    ("scene", "rendition"),
     ("readout", "planning"),
     ("pose", "spectrum"),
     ("calibration",),

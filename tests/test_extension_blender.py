@@ -400,6 +400,47 @@ def test_custom_properties_round_trip_through_a_blend(addon: Installed, tmp_path
     assert settings.node_group == group
 
 
+def test_a_light_carries_the_rendition_figures_and_ranges(addon: Installed) -> None:
+    data = fake_estimate(blackbody_spd(2700.0))
+    rendition = data["rendition"]
+    _store(addon, data)
+    bpy.ops.cd_spectra.create_light(light_type="POINT")
+    light = bpy.context.object.data
+    for key in ("cri_ra", "cri_r9", "tm30_rf", "tm30_rg"):
+        assert light[f"cd_spectra_{key}"] == pytest.approx(rendition[key])
+        assert list(light[f"cd_spectra_{key}_range"]) == pytest.approx(rendition["ranges"][key])
+    assert light["cd_spectra_rendition_too_wide"] == ""
+    _store(addon, fake_estimate(blackbody_spd(3000.0), rendition=None))  # an estimate made with --no-rendition
+    bpy.ops.cd_spectra.apply_to_light()
+    assert "cd_spectra_cri_ra" not in light.keys() and light["cd_spectra_cct_k"] > 2900
+
+
+def test_the_vector_graphic_is_a_preview_of_the_cores_drawing(addon: Installed) -> None:
+    """The panel's TM-30 graphic: the core's numpy image in a preview (no data-block in the file),
+    made once per graphic and freed with the add-on. Headless Blender gives previews no icon id,
+    so showing it (``template_icon``) is left to a Blender with a UI."""
+    import numpy as np
+
+    from cd_spectra_addon.core.rendition.vector_graphic import vector_graphic_image
+
+    graphic = addon.sub("cd_spectra_addon.blender.vector_graphic")
+    rendition = fake_estimate(blackbody_spd(2700.0))["rendition"]
+    images_before = len(bpy.data.images)
+    graphic.icon_for(rendition)
+    graphic.icon_for(rendition)
+    previews = graphic._previews
+    assert previews is not None and len(previews) == 1 and len(bpy.data.images) == images_before
+    preview = next(iter(previews.values()))
+    assert tuple(preview.image_size) == (graphic.SIZE, graphic.SIZE)
+    pixels = np.empty(graphic.SIZE * graphic.SIZE * 4, dtype=np.float32)
+    preview.image_pixels_float.foreach_get(pixels)
+    # Previews keep 8 bits per channel, shown as they are (display values, as the core draws them).
+    assert pixels == pytest.approx(vector_graphic_image(rendition, graphic.SIZE).ravel(), abs=0.6 / 255)
+    assert graphic.icon_for({"defined": False, "reason": "far from white"}) is None
+    graphic.release()
+    assert graphic._previews is None
+
+
 def test_undo_after_create_light_removes_it(addon: Installed, tmp_path: Path) -> None:
     """Real undo needs a window: headless Blender has no undo stack (ed.undo.poll() is False).
 
@@ -453,6 +494,9 @@ if scenario == "reference":
     settings.reference_json = json.dumps({"name": "CIE A", "spd": ref, "metrics": {
         "mae_400_700": 0.02, "delta_uv_prime": 0.001}})
     settings.calibration_lamp = "FILE"
+if scenario == "no_rendition":  # far from white: the figures are undefined, and say why
+    spd = blackbody_spd(3000.0)
+    state.store_estimate(settings, fake_estimate(spd, rendition={"defined": False, "reason": "too far from white"}))
 if scenario == "group_deleted":
     bpy.data.node_groups.remove(settings.node_group)
 if scenario == "setup":
@@ -498,7 +542,7 @@ os._exit(3)
 
 
 @pytest.mark.parametrize("scenario", ["empty", "estimate", "reference", "group_deleted", "setup", "measured", "gif",
-                                      "joint"])
+                                      "joint", "no_rendition"])
 def test_every_panel_draws_with_a_real_layout(installed_addon: Installed, scenario: str) -> None:
     """Panels drawn into a real ``UILayout`` (not a stub).
 
@@ -806,6 +850,7 @@ def test_reference_spd_is_compared_with_the_estimate(addon: Installed, tmp_path:
     assert ref["name"] == "halogen"
     assert 0 < ref["metrics"]["mae_400_700"] < 0.05
     assert 0 < ref["metrics"]["delta_uv_prime"] < 0.01
+    assert abs(ref["metrics"]["delta_cri_ra"]) < 1.0 and abs(ref["metrics"]["delta_tm30_rf"]) < 1.0  # two Planckians
     assert settings.reference_node_group["cd_spectra_kind"] == "reference"
     assert len(bpy.data.node_groups) == 1  # the reference's group; the estimate made none here
 

@@ -1,11 +1,13 @@
-"""Bake the colorimetry tables the add-on needs from colour-science into one shipped file.
+"""Bake the colorimetry tables the add-on needs from colour-science into shipped files.
 
     make bake-colour   (python -m tools.bake_colour)
 
-Blender's bundled Python has numpy only, so :mod:`cd_spectra_addon.core.spectra.colour` works from
-numbers baked here, once, offline: ``cd_spectra_addon/core/colour_tables.json``. Re-run only
-when colour-science or a choice below changes (the output is committed; the parity tests in
-``tests/test_colour.py`` compare every table with colour-science again).
+Blender's bundled Python has numpy only, so :mod:`cd_spectra_addon.core.spectra.colour` and
+:mod:`cd_spectra_addon.core.rendition` work from numbers baked here, once, offline:
+``cd_spectra_addon/core/spectra/colour_tables.json`` and
+``cd_spectra_addon/core/rendition/rendition_tables.npz``. Re-run only when colour-science or a
+choice below changes (the outputs are committed; the parity tests in ``tests/test_colour.py``
+and ``tests/test_rendition.py`` compare every table, and every figure, with colour-science again).
 
 What is baked and why:
 
@@ -44,7 +46,9 @@ import numpy as np
 from cd_spectra_addon.core.spectra.colour import ACESCG, LINEAR_REC709, LINEAR_REC2020
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
-TARGET = Path(__file__).resolve().parents[1] / "cd_spectra_addon" / "core" / "spectra" / "colour_tables.json"
+CORE = Path(__file__).resolve().parents[1] / "cd_spectra_addon" / "core"
+TARGET = CORE / "spectra" / "colour_tables.json"
+RENDITION_TARGET = CORE / "rendition" / "rendition_tables.npz"
 
 OBSERVER = "CIE 1931 2 Degree Standard Observer"
 CCT_MIN_K = 1000.0
@@ -111,12 +115,53 @@ def bake(target: Path = TARGET) -> dict:
     return payload
 
 
+def rendition_tables() -> dict[str, np.ndarray]:
+    """The reference data of CIE 13.3, CIE 224:2017 and TM-30, as colour-science uses them."""
+    from colour.colorimetry import SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES, SPECTRAL_SHAPE_DEFAULT, reshape_sd
+    from colour.quality.cfi2017 import SPECTRAL_SHAPE_CIE2017, load_TCS_CIE2017
+    from colour.quality.datasets.tcs import INDEXES_TO_NAMES_TCS, SDS_TCS
+    from colour.temperature.ohno2013 import CCT_DEFAULT_SPACING_OHNO2013, planckian_table
+    from colour.temperature.robertson1968 import DATA_ISOTEMPERATURE_LINES_ROBERTSON1968
+
+    cri_shape = SPECTRAL_SHAPE_DEFAULT  # what colour_rendering_index reshapes everything to
+    cfi_shape = colour.SpectralShape(SPECTRAL_SHAPE_CIE2017.start, SPECTRAL_SHAPE_CIE2017.end, 1)
+    basis = [SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES[k] for k in ("S0", "S1", "S2")]
+    linear = [colour.SpectralDistribution(b.values, b.wavelengths, interpolator=colour.LinearInterpolator)
+              for b in basis]
+    tcs = [reshape_sd(SDS_TCS[INDEXES_TO_NAMES_TCS[i]], cri_shape) for i in sorted(INDEXES_TO_NAMES_TCS)]
+    return {
+        "cri_wavelength_nm": np.asarray(cri_shape.wavelengths, dtype=np.float64),
+        "cri_tcs": np.stack([t.values for t in tcs], axis=1),
+        "cri_daylight_basis": np.stack([b.copy().align(cri_shape).values for b in linear], axis=1),
+        "robertson_lines": np.asarray(DATA_ISOTEMPERATURE_LINES_ROBERTSON1968, dtype=np.float64),
+        "cfi_wavelength_nm": np.asarray(cfi_shape.wavelengths, dtype=np.float64),
+        "cfi_ces": np.asarray(load_TCS_CIE2017(cfi_shape).values, dtype=np.float64),
+        "cfi_cmf_10": np.asarray(colour.colorimetry.reshape_msds(
+            colour.MSDS_CMFS["CIE 1964 10 Degree Standard Observer"], cfi_shape).values, dtype=np.float64),
+        "cfi_daylight_basis": np.stack([reshape_sd(b, cfi_shape).values for b in basis], axis=1),
+        # colour.quality.cfi2017.CCT_reference_illuminant: uv_to_CCT_Ohno2013(uv, start=1000, end=25000)
+        "cfi_planckian_table": planckian_table(colour.colorimetry.handle_spectral_arguments(None)[0], 1000, 25000,
+                                               CCT_DEFAULT_SPACING_OHNO2013),
+    }
+
+
+def bake_rendition(target: Path = RENDITION_TARGET) -> dict[str, np.ndarray]:
+    tables = rendition_tables()
+    with open(target, "wb") as handle:  # uncompressed (float64 noise barely compresses; loads in ~1 ms), fixed zip dates
+        np.savez(handle, source=np.array(f"colour-science {colour.__version__}, baked by "
+                                                    "tools/bake_colour.py"), **tables)
+    return tables
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.parse_args()
     payload = bake()
     print(f"baked {len(payload['cmf_hat'])} hat CMFs, {len(payload['planckian_table']['T'])} "
           f"locus points, {len(payload['xyz_to_rgb'])} working spaces into {TARGET}")
+    tables = bake_rendition()
+    print(f"baked {tables['cri_tcs'].shape[1]} CIE 13.3 test colour samples and {tables['cfi_ces'].shape[1]} "
+          f"CIE 2017 colour evaluation samples into {RENDITION_TARGET}")
 
 
 if __name__ == "__main__":

@@ -31,6 +31,8 @@ WAVELENGTH_NODE = "Wavelength to curve x"
 WAVELENGTH_SOCKET = "Wavelength"
 COLOUR_SOCKET = "Color"
 POWER_SOCKET = "Power"
+# Rendition figures a light carries as custom properties (with ``_range`` = [low, high]).
+RENDITION_PROPERTIES = ("cri_ra", "cri_r9", "tm30_rf", "tm30_rg")
 
 
 def spd_hash(spd: Sequence[float]) -> str:
@@ -132,7 +134,28 @@ def metadata_properties(spd: Sequence[float], info: SpectralColour, meta: dict[s
                 "kind", "name"):
         if meta.get(key) not in (None, ""):
             props[f"{KEY}_{key}"] = meta[key]
+    props.update(rendition_properties(meta.get("rendition")))
     return {k: v for k, v in props.items() if v is not None}
+
+
+def rendition_properties(rendition: Any) -> dict[str, Any]:
+    """Ra, R9, Rf, Rg and their 90 % ranges as custom properties (none for an estimate without
+    rendition figures), and which ranges were too wide to mean anything."""
+    if not isinstance(rendition, dict) or not rendition.get("defined"):
+        return {}
+    props: dict[str, Any] = {}
+    ranges = rendition.get("ranges") or {}
+    for key in RENDITION_PROPERTIES:
+        value = rendition.get(key)
+        if isinstance(value, (int, float)):
+            props[f"{KEY}_{key}"] = float(value)
+        bounds = ranges.get(key)
+        if isinstance(bounds, list) and len(bounds) == 2 and all(isinstance(b, (int, float)) for b in bounds):
+            props[f"{KEY}_{key}_range"] = [float(bounds[0]), float(bounds[1])]
+    wide = [k for k in rendition.get("too_wide") or () if k in RENDITION_PROPERTIES]
+    if ranges:
+        props[f"{KEY}_rendition_too_wide"] = ", ".join(wide)
+    return props
 
 
 def _fill(group: bpy.types.NodeTree, spd: Sequence[float], info: SpectralColour,

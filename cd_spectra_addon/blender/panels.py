@@ -12,7 +12,7 @@ from typing import Any
 
 import bpy
 
-from . import photo_frames, state
+from . import photo_frames, state, vector_graphic
 from .node_group import curve_node
 from .registration import register_classes, unregister_classes
 
@@ -25,7 +25,14 @@ METRICS = (
     ("delta_uv_prime", "Δu′v′", "{:.4f}"),
     ("delta_cct_k", "ΔCCT", "{:+.0f} K"),
     ("pearson_r", "Shape r", "{:.3f}"),
+    ("delta_cri_ra", "ΔRa", "{:+.1f}"),
+    ("delta_cri_r9", "ΔR9", "{:+.1f}"),
+    ("delta_tm30_rf", "ΔRf", "{:+.1f}"),
+    ("delta_tm30_rg", "ΔRg", "{:+.1f}"),
 )
+# The rendition figures the Result panel lists (the estimate JSON's keys), with their labels.
+RENDITION_ROWS = (("cri_ra", "Ra"), ("cri_r9", "R9"), ("tm30_rf", "Rf"), ("tm30_rg", "Rg"),
+                  ("peak_wavelength_nm", "Peak"), ("dominant_wavelength_nm", "Dominant λ"))
 
 
 def _settings(context: bpy.types.Context) -> Any:
@@ -149,6 +156,7 @@ class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):
         if isinstance(joint, dict):
             _wrapped(layout, context, f"From {joint.get('used')} of {joint.get('given')} photos of one lamp.",
                      "IMAGE_DATA")
+        _draw_rendition(layout, context, data.get("rendition"))
         warnings = list(data.get("warnings") or [])
         if warnings:
             box = layout.box()
@@ -162,6 +170,35 @@ class CDSPECTRA_PT_result(_SidebarPanel, bpy.types.Panel):
         op.light_type = settings.light_type
         layout.operator("cd_spectra.apply_to_light", icon="LIGHT_DATA")
         layout.operator("cd_spectra.export_spd", icon="EXPORT")
+
+
+def _draw_rendition(layout: bpy.types.UILayout, context: bpy.types.Context, rendition: Any) -> None:
+    """Colour rendition: the figures with their 90 % ranges, the flags, the vector graphic."""
+    if not isinstance(rendition, dict):
+        return  # an estimate made without rendition (or before it existed)
+    from ..core.rendition.result import format_figure
+
+    box = layout.box()
+    box.label(text="Colour rendition", icon="COLOR")
+    if not rendition.get("defined"):
+        _wrapped(box, context, str(rendition.get("reason", "not computed")), "INFO")
+        return
+    grid = box.grid_flow(row_major=True, columns=2, even_columns=False, align=True)
+    for key, label in RENDITION_ROWS:
+        grid.label(text=label)
+        grid.label(text=format_figure(rendition, key).replace(": range too wide to mean anything", " (too wide)"))
+    if rendition.get("ranges"):
+        _wrapped(box, context, "[ ] = 90 % range from the estimate's uncertainty.")
+    if rendition.get("too_wide"):
+        _wrapped(box, context, "A range marked too wide does not tell a good lamp from a poor one: improve the "
+                 "photo (exposure, lamp size) before trusting that figure.", "ERROR")
+    for note in rendition.get("notes") or ():
+        _wrapped(box, context, str(note), "INFO")
+    icon = vector_graphic.icon_for(rendition)
+    if icon:
+        box.label(text="TM-30 colour vector graphic")
+        box.template_icon(icon_value=icon, scale=9.0)
+    _wrapped(box, context, "TLCI is not computed (no implementation in colour-science).")
 
 
 class CDSPECTRA_PT_compare(_SidebarPanel, bpy.types.Panel):
@@ -318,3 +355,4 @@ def register() -> None:
 
 def unregister() -> None:
     unregister_classes(classes)
+    vector_graphic.release()

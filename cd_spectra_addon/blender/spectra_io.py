@@ -42,13 +42,23 @@ def read_reference(path: str | Path) -> tuple[str, list[float]]:
     return str(name), [float(v) for v in spd]
 
 
-def compare(estimate: Sequence[float], reference: Sequence[float]) -> dict[str, float]:
-    """Accuracy numbers of an estimate against a reference (MAE, Δu'v', ...)."""
+def compare(estimate: Sequence[float], reference: Sequence[float],
+            rendition: dict[str, Any] | None = None) -> dict[str, float]:
+    """Accuracy numbers of an estimate against a reference (MAE, Δu'v', ...), and ``delta_<figure>``
+    (estimate − reference) for the headline rendition figures — from the estimate's own
+    ``rendition`` JSON where it has one."""
     import numpy as np
 
+    from ..core.rendition.result import HEADLINE, compare_rendition
+    from ..core.rendition.result import rendition as rendition_of_spd
     from ..core.spectra.colour import compare_spds
 
-    result = compare_spds(np.asarray(estimate, dtype=np.float64), np.asarray(reference, dtype=np.float64))
+    est = np.asarray(estimate, dtype=np.float64)
+    ref = np.asarray(reference, dtype=np.float64)
+    result: dict[str, Any] = dict(compare_spds(est, ref))
+    figures = compare_rendition(rendition if isinstance(rendition, dict) else rendition_of_spd(est), ref)
+    for key in HEADLINE if figures.get("defined") else ():
+        result[f"delta_{key}"] = figures["difference"].get(key)
     return {str(k): float(v) for k, v in result.items() if isinstance(v, (int, float))}
 
 

@@ -147,4 +147,5 @@ def estimate_meta(data: dict[str, Any]) -> dict[str, Any]:
         "camera": data.get("camera"),
         "calibration": data.get("calibration"),
         "confidence": data.get("confidence"),
+        "rendition": data.get("rendition"),
     }

@@ -2,11 +2,14 @@
 
 An animated GIF is a series of photos: each of its frames is estimated, in order, named
 ``FILE.gif#N`` (from 0) in the results; ``FILE.gif#N`` on the command line reads that frame only.
-By default a short summary per photo for people (source, CCT, Duv, xy, confidence, warnings,
-where files went). ``--json FILE`` writes the results (``Estimate.to_json()``) as a JSON array,
+By default a short summary per photo for people (source, CCT, Duv, xy, colour rendition — Ra, R9,
+Rf, Rg with their 90 % ranges, peak and dominant wavelength — confidence, warnings, where files
+went). ``--no-rendition`` skips the rendition figures (a bulk run that wants spectra only).
+``--json FILE`` writes the results (``Estimate.to_json()``) as a JSON array,
 ``--json -`` prints them to stdout, one object per line, in the order given (and no summary).
 ``--blend`` saves a scene with one matched spot light per photo (bpy is imported only then);
-``--plot`` draws the SPDs with their uncertainty (matplotlib, imported only then). With several
+``--plot`` draws the SPDs with their uncertainty and the TM-30 colour vector graphic (matplotlib,
+imported only then). With several
 photos, progress goes to stderr (when it is a terminal, or with ``--progress``). Files appear
 whole or not at all; bad input writes nothing.
 
@@ -27,6 +30,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..core.rendition.result import summary_text
 from ..core.spectra.cameras import DEFAULT_CAMERA
 from ..core.scene.capture import DEFAULT_PRESET
 from .common import STDOUT, UsageError, atomic_path, check_output, progress, quiet_fds, writing
@@ -49,9 +53,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--calibration", default=None, help="calibration profile name (see `calibrations`)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="write the results as JSON; '-' for stdout")
     parser.add_argument("--blend", type=Path, metavar="OUT.blend", help="save a scene with the matched lights")
-    parser.add_argument("--plot", type=Path, metavar="OUT.png", help="draw the SPDs (needs matplotlib)")
+    parser.add_argument("--plot", type=Path, metavar="OUT.png",
+                        help="draw the SPDs and the TM-30 colour vector graphic (needs matplotlib)")
     parser.add_argument("--joint", action="store_true",
                         help="the photos show the same lamp: one estimate from all of them together")
+    parser.add_argument("--no-rendition", dest="rendition", action="store_false",
+                        help="skip the colour-rendition figures (CRI, TM-30, ...): spectra only, for bulk runs")
     parser.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                         help="a line on stderr per photo when there are several (default: when stderr "
                              "is a terminal)")
@@ -99,7 +106,8 @@ def _estimate_joint(args: argparse.Namespace) -> list[dict[str, Any]]:
 
     try:
         estimate = estimate_joint(photos, preset=presets if len(set(presets)) > 1 else args.preset,
-                                  camera=args.camera, calibration=args.calibration, progress=step)
+                                  camera=args.camera, calibration=args.calibration, progress=step,
+                                  rendition=args.rendition)
     except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
         raise UsageError(str(exc)) from exc
     return [estimate.to_json()]
@@ -114,7 +122,8 @@ def _estimate_all(args: argparse.Namespace) -> list[dict[str, Any]]:
     results: list[dict[str, Any]] = []
     show = sys.stderr.isatty() if args.progress is None else args.progress
     many = show and len(photos) > 1
-    estimates = estimate_photos(photos, preset=args.preset, camera=args.camera, calibration=args.calibration)
+    estimates = estimate_photos(photos, preset=args.preset, camera=args.camera, calibration=args.calibration,
+                                rendition=args.rendition)
     while len(results) < len(photos):
         photo = photos[len(results)]
         if many:
@@ -149,7 +158,8 @@ def _photo_list(paths: Sequence[Path]) -> list[str]:
 
 
 def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
-    """The estimated SPDs with their one-sigma band, the physics-only solution dashed."""
+    """The estimated SPDs with their one-sigma band, the physics-only solution dashed; beside
+    them, where the estimates have colour rendition, the TM-30 colour vector graphic."""
     try:
         import matplotlib
 
@@ -157,7 +167,11 @@ def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
         import matplotlib.pyplot as plt
     except ImportError as exc:
         raise UsageError(f"--plot needs matplotlib ({exc})") from exc
-    fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=120)
+    graphics = [data for data in results if (data.get("rendition") or {}).get("defined")]
+    if graphics:
+        fig, (ax, cvg) = plt.subplots(1, 2, figsize=(10.4, 4.2), dpi=120, gridspec_kw={"width_ratios": [1.75, 1]})
+    else:
+        fig, ax = plt.subplots(figsize=(7.0, 3.8), dpi=120)
     for data in results:
         wl, spd = data["wavelength_nm"], data["spd"]
         joint = data.get("joint")
@@ -171,15 +185,52 @@ def write_plot(results: Sequence[dict[str, Any]], path: Path) -> None:
         ax.fill_between(wl, lo, hi, color=line.get_color(), alpha=0.2, lw=0)
         if "physics_spd" in data:
             ax.plot(wl, data["physics_spd"], ls="--", lw=0.8, color=line.get_color(), alpha=0.7)
+        if data in graphics:
+            _draw_vector_graphic(cvg, data["rendition"], line.get_color(), len(graphics) == 1)
     ax.axvspan(380, 400, color="0.9", lw=0)
     ax.axvspan(700, 780, color="0.9", lw=0)
     ax.set(xlim=(380, 780), ylim=(0, 1.15), xlabel="wavelength (nm)", ylabel="relative power",
            title="CD Spectra estimate (shaded: camera nearly blind; dashed: physics only)")
     ax.legend(fontsize=8, loc="upper left")
+    if graphics:
+        cvg.set(xlim=(-1.5, 1.5), ylim=(-1.5, 1.5), aspect="equal", xticks=[], yticks=[],
+                title="TM-30 colour vector graphic")
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
     plt.close(fig)
+
+
+def _draw_vector_graphic(ax: Any, rendition: dict[str, Any], colour: str, alone: bool) -> None:
+    """TM-30's graphic on matplotlib axes: the reference circle, the 16 hue bins' test points (and,
+    for one estimate, their arrows in the bins' colours), the figures in the corners."""
+    import math
+
+    from ..core.rendition.vector_graphic import BIN_COLOURS, vector_graphic_points
+
+    points = vector_graphic_points(rendition)
+    if points is None:
+        return
+    ref, test = points
+    circle = [(math.cos(2 * math.pi * k / 180), math.sin(2 * math.pi * k / 180)) for k in range(181)]
+    ax.plot(*zip(*circle), color="black", lw=1.0)
+    for k in range(16):
+        a = 2 * math.pi * k / 16
+        ax.plot((0.15 * math.cos(a), 1.5 * math.cos(a)), (0.15 * math.sin(a), 1.5 * math.sin(a)), ls="--",
+                color="0.7", lw=0.6)
+        if alone:
+            ax.annotate("", xy=test[k], xytext=ref[k], arrowprops={"arrowstyle": "-|>", "color": BIN_COLOURS[k],
+                                                                    "lw": 1.2})
+    loop = list(test) + [test[0]]
+    ax.plot(*zip(*loop), color=colour if not alone else "#F05046", lw=1.8)
+    if alone:  # the figures in the corners, as TM-30's report puts Rf and Rg
+        corners = (("tm30_rf", "Rf", -1.45, 1.45), ("tm30_rg", "Rg", 1.45, 1.45), ("cri_ra", "Ra", -1.45, -1.45),
+                   ("cri_r9", "R9", 1.45, -1.45))
+        for key, label, x, y in corners:
+            value = rendition.get(key)
+            if isinstance(value, (int, float)):
+                ax.text(x, y, f"{label} {value:.0f}", ha="left" if x < 0 else "right", va="top" if y > 0 else "bottom",
+                        weight="bold")
 
 
 def _blender_fallback_decoder(path: str, header: Any) -> Any:
@@ -262,6 +313,7 @@ def summary(data: dict[str, Any]) -> list[str]:
     cct, duv, xy = data.get("cct_k"), data.get("duv"), data.get("xy") or (float("nan"), float("nan"))
     colour = f"CCT {cct:.0f} K, Duv {duv:+.4f}" if cct is not None and duv is not None else "no CCT (far from white)"
     lines.append(f"  {colour}, xy ({xy[0]:.4f}, {xy[1]:.4f}), confidence {float(data.get('confidence', 0)):.0%}")
+    lines += [f"  {line}" for line in summary_text(data.get("rendition"))]
     extras = [f"{key} {data[key]}" for key in ("preset", "camera", "calibration") if data.get(key)]
     if extras:
         lines.append("  " + ", ".join(extras))

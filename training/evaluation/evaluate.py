@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from cd_spectra_addon.core.rendition.result import rendition as rendition_json
 from cd_spectra_addon.core.spectra import colour as colour_core
 from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.pose.result import PoseFit
@@ -54,6 +55,9 @@ PAPER = {"mae": 0.0677, "r": 0.864}
 UPSAMPLE = 2
 GOALS = {"mae_400_700": 0.015, "mae_380_780": 0.03, "r": 0.98, "duv": 0.001}
 METRICS = ("mae_400_700", "mae_380_780", "pearson_r", "delta_uv_prime", "abs_delta_cct_k")
+RENDITION_FIGURES = ("cri_ra", "cri_r9", "tm30_rf", "tm30_rg", "dominant_wavelength_nm", "peak_wavelength_nm")
+RENDITION_LABELS = {"cri_ra": "Ra", "cri_r9": "R9", "tm30_rf": "Rf", "tm30_rg": "Rg", "dominant_wavelength_nm": "λd",
+                    "peak_wavelength_nm": "λpeak"}
 
 __all__ = ["main"]
 
@@ -114,6 +118,38 @@ def metrics(est: np.ndarray, ref: np.ndarray) -> dict[str, float]:
     out = {k: (float(m[k]) if m.get(k) is not None else math.nan) for k in
            ("mae_400_700", "mae_380_780", "pearson_r", "delta_uv_prime")}
     out["abs_delta_cct_k"] = abs(m["delta_cct_k"]) if m.get("delta_cct_k") is not None else math.nan
+    return out
+
+
+def rendition_scores(estimate: dict[str, Any] | None, truth: np.ndarray) -> dict[str, float]:
+    """Per rendition figure of an estimate's ``rendition`` JSON against the true SPD's: covered
+    (1 / 0: the truth in the 90 % range), |error|, range width and flagged too wide (1 / 0); NaN
+    where either side has no value (a light far from white, an estimate without rendition)."""
+    truth_json = rendition_json(truth)
+    out: dict[str, float] = {}
+    for key in RENDITION_FIGURES:
+        value, true = (estimate or {}).get(key), truth_json.get(key)
+        bounds = ((estimate or {}).get("ranges") or {}).get(key) or (None, None)
+        ok = all(isinstance(v, (int, float)) for v in (value, true, *bounds))
+        out[f"covered_{key}"] = float(bounds[0] <= true <= bounds[1]) if ok else math.nan
+        out[f"error_{key}"] = abs(value - true) if ok else math.nan
+        out[f"width_{key}"] = bounds[1] - bounds[0] if ok else math.nan
+        out[f"wide_{key}"] = float(key in ((estimate or {}).get("too_wide") or ())) if ok else math.nan
+    return out
+
+
+def rendition_summary(rows: list[dict[str, float]]) -> dict[str, Any]:
+    """Per figure over lamps with a value: n, coverage, median / mean |error|, median width, share flagged."""
+    out: dict[str, Any] = {}
+    for key in RENDITION_FIGURES:
+        cov = np.array([r.get(f"covered_{key}", math.nan) for r in rows], dtype=float)
+        ok = np.isfinite(cov)
+        col = lambda name: np.array([r[f"{name}_{key}"] for r in rows], dtype=float)[ok]  # noqa: E731
+        out[key] = {"n": int(ok.sum()), "coverage": float(cov[ok].mean()) if ok.any() else math.nan,
+                    "median_abs_error": float(np.median(col("error"))) if ok.any() else math.nan,
+                    "mean_abs_error": float(np.mean(col("error"))) if ok.any() else math.nan,
+                    "median_width": float(np.median(col("width"))) if ok.any() else math.nan,
+                    "too_wide": float(np.mean(col("wide"))) if ok.any() else math.nan}
     return out
 
 
@@ -181,7 +217,8 @@ def run_condition(photos: Photos, cond: Condition, lamps: list[Lamp], model, met
                              model=model, method=method, fit=fit)
         seconds.append(time.perf_counter() - t0)
         rows.append({**metrics(est.spd, lamp.spd), "family": lamp.family, "lamp": lamp.name,
-                     "confidence": est.confidence})
+                     "confidence": est.confidence, **(rendition_scores(est.rendition, lamp.spd)
+                                                     if method == METHOD_MODEL and cond.name == "nominal" else {})})
         estimates.append(est.spd)
     return rows, estimates, float(np.mean(seconds))
 
@@ -323,6 +360,7 @@ def main(argv: list[str] | None = None) -> int:
                                                                 [r["mae_400_700"] for r in rows])}
             if method == METHOD_MODEL:
                 estimates_model = ests
+                real[method]["rendition"] = rendition_summary(rows)
             print(f"real lamps, {method}: {real[method]['all']}", flush=True)
         result["real_lamps"] = real
 
@@ -421,12 +459,27 @@ def render_markdown(r: dict[str, Any]) -> str:
               f"{r['n_lamps']} lamps: 205 LSPDD + colour-science's measured sources and CIE illuminants. "
               f"Goals: MAE ≤ {GOALS['mae_400_700']} (400–700) and ≤ {GOALS['mae_380_780']} (380–780), "
               f"r ≥ {GOALS['r']}, Δu'v' ≤ {GOALS['duv']}.", "",
-              "| method | ms / photo | MAE 400–700 | MAE 380–780 | r | Δu'v' | |ΔCCT| K |", "|---|---|---|---|---|---|---|"]
+              "| method | ms / photo | MAE 400–700 | MAE 380–780 | r | Δu'v' | |ΔCCT| K | Ra / R9 / Rf / Rg in range |",
+              "|---|---|---|---|---|---|---|---|"]
     for method in (METHOD_PHYSICS, METHOD_PRIOR, METHOD_MODEL):
         s = real[method]["all"]
+        rend = real[method].get("rendition")
+        covered = " / ".join(f"{_fmt(100 * rend[k]['coverage'], 0)} %" for k in RENDITION_FIGURES[:4]) if rend else "–"
         lines.append(f"| {method} | {1e3 * real[method]['seconds_per_photo']:.0f} | {_fmt(s['mae_400_700'])} "
                      f"(median {_fmt(s['mae_400_700_median'])}) | {_fmt(s['mae_380_780'])} | "
-                     f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} | {_fmt(s['abs_delta_cct_k'], 0)} |")
+                     f"{_fmt(s['pearson_r'], 3)} | {_fmt(s['delta_uv_prime'])} | {_fmt(s['abs_delta_cct_k'], 0)} | "
+                     f"{covered} |")
+    rend = real[METHOD_MODEL].get("rendition")
+    if rend:
+        lines += ["", "Colour rendition (model): how often the true lamp's figure lies in the estimate's 90 % range "
+                  "(5–95 % of SPDs drawn from `spd_std`, `core/rendition/result.py`), and the errors; lamps too far "
+                  "from white have none (bench/rendition.md has the choice of the draws and the time):", "",
+                  "| figure | lamps | covered | median abs error | mean abs error | median range width | flagged too wide |",
+                  "|---|---|---|---|---|---|---|"]
+        for key, row in rend.items():
+            lines.append(f"| {RENDITION_LABELS[key]} | {row['n']} | {_fmt(100 * row['coverage'], 0)} % | "
+                         f"{_fmt(row['median_abs_error'], 1)} | {_fmt(row['mean_abs_error'], 1)} | "
+                         f"{_fmt(row['median_width'], 1)} | {_fmt(100 * row['too_wide'], 0)} % |")
     lines += ["", "Per family (model):", "", "| family | n | MAE 400–700 | MAE 380–780 | r | Δu'v' |", "|---|---|---|---|---|---|"]
     for fam, s in real[METHOD_MODEL]["families"].items():
         lines.append(f"| {fam} | {s['n']} | {_fmt(s['mae_400_700'])} | {_fmt(s['mae_380_780'])} | "

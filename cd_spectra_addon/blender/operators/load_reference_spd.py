@@ -45,7 +45,7 @@ class CDSPECTRA_OT_load_reference_spd(bpy.types.Operator, ImportHelper):
             spd = [v / peak for v in spd]
             info = spectral_colour(spd, state.working_space_for(self))
             estimate = state.last_estimate(settings)
-            metrics = compare(estimate["spd"], spd) if estimate is not None else {}
+            metrics = compare(estimate["spd"], spd, estimate.get("rendition")) if estimate is not None else {}
         except (OSError, ValueError, CDSpectraError) as exc:
             self.report({"ERROR"}, f"Cannot use {bpy.path.basename(path)} as a reference: {exc}")
             return {"CANCELLED"}

@@ -6,7 +6,10 @@
 4. the learned model (:mod:`.model`) refines it into the final SPD and its uncertainty;
 5. confidence from what could go wrong — clipping, missing bins, a geometry the fit could not
    explain, an SPD that does not reproduce the photo — each with a plain-language warning;
-6. colour: xy, CCT, Duv and the emission colour in the scene's working space (:mod:`.colour`).
+6. colour: xy, CCT, Duv and the emission colour in the scene's working space (:mod:`.colour`);
+7. colour rendition (CIE 13.3 Ra, R1–R14; TM-30 Rf, Rg, hue bins; peak and dominant wavelength),
+   each with a 90 % range drawn from the SPD's uncertainty (:mod:`..rendition.result`) — skipped
+   when the caller asks for spectra only.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from ..rendition.result import rendition as rendition_figures
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
 from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
@@ -375,13 +379,14 @@ def estimate_image(
     method: str = METHOD_MODEL,
     fit: PoseFit | None = None,
     fusion: tuple[float, float] | None = None,
+    rendition: bool = True,
 ) -> Estimate:
     """Estimate from an already loaded photo (see :func:`estimate_photo`).
 
     ``method``: one of :data:`.stages.OPERATING_POINTS` — "model" (physics + prior + network, the
     product), "prior" (physics under the Gaussian prior only) or "physics" (smoothness-regularised
     physics only), the benchmark's operating points. ``fusion`` overrides the model's (strength,
-    floor).
+    floor). ``rendition=False`` skips the colour-rendition figures (bulk runs that want spectra only).
     """
     if method not in OPERATING_POINTS:
         raise CDSpectraError(f"unknown method {method!r}; known: {', '.join(OPERATING_POINTS)}")
@@ -401,7 +406,11 @@ def estimate_image(
     estimate = estimate_result(photo, result, confidence, warnings, stats, preset_obj, cal, mdl, method,
                                working_space, timing)
     t4 = time.perf_counter()
-    estimate.timing_ms.update({"colour": (t4 - t3) * 1e3, "total": (t4 - t0) * 1e3})
+    figures = rendition_figures(estimate.spd, estimate.spd_std) if rendition else None
+    t5 = time.perf_counter()
+    estimate.rendition = figures
+    estimate.timing_ms.update({"colour": (t4 - t3) * 1e3, **({"rendition": (t5 - t4) * 1e3} if rendition else {}),
+                               "total": (t5 - t0) * 1e3})
     report(1.0, "Done")
     return estimate
 
@@ -416,9 +425,11 @@ def estimate_photo(
     model: SpectralModel | None | str = "shipped",
     progress: Progress | None = None,
     method: str = METHOD_MODEL,
+    rendition: bool = True,
 ) -> Estimate:
     """The lamp's SPD from a CD photo (JPEG/PNG/TIFF/EXR). Raises CDSpectraError subclasses with
-    a message for the user on bad input; never returns NaN."""
+    a message for the user on bad input; never returns NaN. ``rendition=False`` skips the
+    colour-rendition figures."""
     report = progress or (lambda _f, _m: None)
     report(0.0, "Reading the photo")
     t0 = time.perf_counter()
@@ -426,7 +437,8 @@ def estimate_photo(
     image = load_for_estimate(path, preset_obj)
     load_ms = (time.perf_counter() - t0) * 1e3
     result = estimate_image(image, preset=preset_obj, camera=camera, calibration=calibration,
-                            working_space=working_space, model=model, progress=progress, method=method)
+                            working_space=working_space, model=model, progress=progress, method=method,
+                            rendition=rendition)
     result.timing_ms["load"] = load_ms
     result.timing_ms["total"] += load_ms
     return result

@@ -26,6 +26,7 @@ from typing import Any
 from ..calibration.calibration import Calibration
 from ..errors import CDSpectraError, NoDiscError, PhotoError
 from ..photo.images import LinearImage
+from ..rendition.result import rendition as rendition_figures
 from ..pose.result import PoseFit
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset
 from ..spectra.colour import DEFAULT_WORKING_SPACE
@@ -101,11 +102,13 @@ def estimate_joint(
     method: str = METHOD_MODEL,
     fusion: tuple[float, float] | None = None,
     fits: Sequence[PoseFit | None] | None = None,
+    rendition: bool = True,
 ) -> Estimate:
     """One SPD from several photos (paths or loaded images) of the same lamp.
 
     ``preset``: one for every photo, or one per photo; ``camera`` is resolved per photo (``auto``:
-    each photo's EXIF); ``fits`` skip the pose fit per photo (tests, evaluations). The result is
+    each photo's EXIF); ``fits`` skip the pose fit per photo (tests, evaluations); ``rendition=False`` skips
+    the colour-rendition figures. The result is
     the single estimate's, its disc and capture fields the reference photo's (the one with the
     most features), with ``extra["joint"]``: every photo given, read or refused, with its pose,
     fitted brightness, say, coverage, the stretch of 400–700 nm its first order holds
@@ -189,6 +192,9 @@ def estimate_joint(
         "brightness_converged": True if result.solved is None else result.solved.converged,
     }
     t4 = time.perf_counter()
-    estimate.timing_ms.update({"colour": (t4 - t3) * 1e3, "total": (t4 - t0) * 1e3})
+    estimate.rendition = rendition_figures(estimate.spd, estimate.spd_std) if rendition else None
+    t5 = time.perf_counter()
+    estimate.timing_ms.update({"colour": (t4 - t3) * 1e3, **({"rendition": (t5 - t4) * 1e3} if rendition else {}),
+                               "total": (t5 - t0) * 1e3})
     report(1.0, "Done")
     return estimate

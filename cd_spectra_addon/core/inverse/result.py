@@ -65,6 +65,7 @@ class Estimate:
     calibration: str | None = None
     model_version: str = ""
     working_space: str = DEFAULT_WORKING_SPACE
+    rendition: dict[str, Any] | None = None  # core.rendition.result.rendition's object; None when skipped
     extra: dict[str, Any] = field(default_factory=dict)
     wavelength_nm: NDArray[np.float64] = field(default_factory=lambda: WAVELENGTHS_NM.copy())
 
@@ -88,5 +89,6 @@ class Estimate:
             "camera": self.camera,
             "calibration": self.calibration,
             "model_version": self.model_version,
+            **({} if self.rendition is None else {"rendition": self.rendition}),
             **self.extra,
         }

@@ -60,9 +60,12 @@ __all__ = [
     "xy_to_uv_prime",
     "uv1960_to_xy",
     "hat_cmfs",
+    "cmfs_1nm",
     "planck_uv1960",
     "cct_duv_to_uv1960",
     "uv_to_cct_ohno2013",
+    "uv_to_cct_in_table",
+    "ohno_solution",
     "cct_duv",
     "xyz_to_working_rgb",
     "light_colour",
@@ -248,6 +251,14 @@ def hat_cmfs() -> NDArray[np.float64]:
     return _tables().cmf_hat
 
 
+def cmfs_1nm() -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(wavelengths in nm, CMFs (n, 3)) of the CIE 1931 2° observer at 1 nm over 360–780 nm, read-only:
+    colour-science's default observer (``SPECTRAL_SHAPE_DEFAULT``), which its Planckian locus,
+    CIE 13.3 colour rendering and dominant wavelength use."""
+    t = _tables()
+    return np.round(t.planck_wavelength_m * 1e9, 9), t.cmf_planck
+
+
 # --- CCT and Duv (Ohno 2014) ---------------------------------------------------------------
 
 
@@ -292,10 +303,19 @@ def _ohno_chunk(uv: NDArray[np.float64]) -> NDArray[np.float64]:
         dist = np.hypot(locus[..., 0] - uv[:, 0:1], locus[..., 1] - uv[:, 1:2])
         j = np.clip(np.argmin(dist, axis=1), 1, _CASCADE_POINTS - 2)
         lo, hi = temps[rows, j - 1], temps[rows, j + 1]
+    three = j[:, None] + np.arange(-1, 2)
+    return ohno_solution(uv, np.take_along_axis(temps, three, axis=1), np.take_along_axis(locus, three[..., None], axis=1))
 
-    t_p, t_i, t_n = temps[rows, j - 1], temps[rows, j], temps[rows, j + 1]
-    d_p, d_i, d_n = dist[rows, j - 1], dist[rows, j], dist[rows, j + 1]
-    uv_p, uv_n = locus[rows, j - 1], locus[rows, j + 1]
+
+def ohno_solution(uv: NDArray[np.float64], temps: NDArray[np.float64], locus: NDArray[np.float64]
+                  ) -> NDArray[np.float64]:
+    """CCT and Duv (m, 2) of uv (m, 2) from the three Planckian points around its nearest one:
+    temperatures (m, 3) and their uv (m, 3, 2), in increasing temperature — Ohno's triangular
+    solution near the locus, his parabolic one where |Duv| ≥ 0.002."""
+    dist = np.hypot(locus[..., 0] - uv[:, None, 0], locus[..., 1] - uv[:, None, 1])
+    t_p, t_i, t_n = temps.T
+    d_p, d_i, d_n = dist.T
+    uv_p, uv_n = locus[:, 0], locus[:, 2]
 
     # Triangular solution (close to the locus).
     length = np.hypot(*(uv_n - uv_p).T)
@@ -317,6 +337,27 @@ def _ohno_chunk(uv: NDArray[np.float64]) -> NDArray[np.float64]:
 
     parabolic = (np.abs(duv_t) >= 0.002) & convex
     return np.stack([np.where(parabolic, cct_p, cct_t), np.where(parabolic, duv_p, duv_t)], axis=-1)
+
+
+def uv_to_cct_in_table(uv: ArrayLike, table_t: NDArray[np.float64], table_uv: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+    """CCT and Duv of uv (..., 2) by Ohno on a given Planckian table (T (k,), uv (k, 2)), without
+    the cascade: colour-science's ``uv_to_CCT_Ohno2013`` on the same table, point for point (the
+    CIE 2017 fidelity index uses its 1000–25 000 K table; a fine table makes a batch cheap).
+
+    The nearest table point is found on every 16th point first, then among its neighbours: the
+    distance to the locus has one minimum along it for any chromaticity CCT is defined for."""
+    arr = _as_vectors(uv, 2, "uv")
+    flat = arr.reshape(-1, 2)
+    stride = 16
+    coarse = np.arange(0, table_t.size, stride)
+    d2 = (table_uv[coarse, 0] - flat[:, 0:1]) ** 2 + (table_uv[coarse, 1] - flat[:, 1:2]) ** 2
+    window = coarse[np.argmin(d2, axis=1)][:, None] + np.arange(-2 * stride, 2 * stride + 1)
+    window = np.clip(window, 0, table_t.size - 1)
+    d2 = (table_uv[window, 0] - flat[:, 0:1]) ** 2 + (table_uv[window, 1] - flat[:, 1:2]) ** 2
+    nearest = window[np.arange(flat.shape[0]), np.argmin(d2, axis=1)]
+    three = np.clip(nearest, 1, table_t.size - 2)[:, None] + np.arange(-1, 2)  # colour clamps the same way
+    return ohno_solution(flat, table_t[three], table_uv[three]).reshape(arr.shape)
 
 
 def uv_to_cct_ohno2013(uv: ArrayLike) -> NDArray[np.float64]:
