@@ -29,11 +29,13 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.inverse.joint import estimate_joint
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.stages import MIN_COVERAGE_NM, pose_photo, series_focal_px
 from cd_spectra_addon.core.photo.frames import frame_count, with_frame
@@ -105,6 +107,8 @@ class FrameResult:
     seconds: float = 0.0
     spd: np.ndarray | None = None
     scene: Scene | None = field(default=None, repr=False)
+    image: Any = field(default=None, repr=False)  # the loaded frame and its pose fit, for the joint
+    fit: Any = field(default=None, repr=False)
 
     @property
     def read(self) -> bool:
@@ -129,6 +133,7 @@ def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = 
         posed = pose_photo(image, preset, load_camera(DEFAULT_CAMERA), focal_px=focal)
         out.focal_source = "series outline" if focal is not None else posed.focal_source
         out.focal_px = float(posed.focal_px)
+        out.image, out.fit = image, posed.fit
         out.scene = posed.fit.known_scene
         out.line_offset_px, out.line_share = posed.fit.line_offset_px, posed.fit.line_share
         out.strategy = posed.fit.strategy
@@ -139,6 +144,45 @@ def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = 
         return out
     out.seconds = time.perf_counter() - t0
     out.spd, out.cct_k, out.confidence = est.spd, est.cct_k, est.confidence
+    out.planck_r, out.planck_t = best_planck(est.spd)
+    return out
+
+
+@dataclass
+class JointResult:
+    series: str
+    used: list[int]
+    partial: list[int]
+    held_nm: float
+    refused: str = ""
+    cct_k: float | None = None
+    planck_r: float = math.nan
+    planck_t: float = math.nan
+    confidence: float = math.nan
+
+
+def read_joint(results: list[FrameResult], disc: str) -> JointResult:
+    """``estimate --joint`` of every frame whose rainbow the pose stage found (each with its own
+    fit and preset): the frames together may cover what no one frame does."""
+    frames = [r for r in results if r.fit is not None]
+    out = JointResult(results[0].series if results else "", [], [], 0.0)
+    if not frames:
+        out.refused = "no frame was posed"
+        return out
+    try:
+        est = estimate_joint([r.image for r in frames], preset=[kim_preset(disc, r.frame) for r in frames],
+                             fits=[r.fit for r in frames])
+    except CDSpectraError as exc:
+        out.refused = str(exc)
+        return out
+    joint = est.extra.get("joint", {})
+    for r, entry in zip(frames, joint.get("photos", [])):
+        if not entry.get("refused"):
+            out.used.append(r.frame)
+            if entry.get("partial"):
+                out.partial.append(r.frame)
+    out.held_nm = float(sum(b - a for a, b in joint.get("held_nm", [])))
+    out.cct_k, out.confidence = est.cct_k, est.confidence
     out.planck_r, out.planck_t = best_planck(est.spd)
     return out
 
@@ -211,7 +255,7 @@ def _wavelength_rgb(lam: float) -> tuple[int, int, int]:
     return 255, 0, 0
 
 
-def report(results: list[FrameResult], seconds: float) -> str:
+def report(results: list[FrameResult], joints: dict[str, JointResult], seconds: float) -> str:
     lines = ["# Real photographs: Kim 2023 (`make eval-real KIM_DIR=…`)", "",
              "`python -m training.evaluation.real_photos --kim-dir DIR`: every frame of Kim's `unwritten/cd1.gif` "
              "and `unwritten/dvd1.gif` (not in the repo: no licence) through the product's loader, pose fit and "
@@ -251,6 +295,17 @@ def report(results: list[FrameResult], seconds: float) -> str:
             focal = "—" if not r.focal_source else f"{r.focal_px:.0f} ({r.focal_source})"
             lines.append(f"| {r.frame} | {r.theta:g}° | {r.stated_first_order_nm:.0f} nm | {result} | {cct} | "
                          f"{planck} | {conf} | {ln} | {focal} | {r.seconds:.1f} |")
+        joint = joints.get(series)
+        if joint is not None:
+            if joint.refused:
+                lines += ["", f"**Joint estimate** (`estimate --joint` of every posed frame): refused — {joint.refused[:300]}"]
+            else:
+                lines += ["", f"**Joint estimate** (`estimate --joint` of every frame the pose stage posed, each "
+                          f"with its own fit): frames used {', '.join(map(str, joint.used))} "
+                          f"({len(joint.partial)} of them too short alone, used for their stretch); together "
+                          f"{joint.held_nm:.0f} nm of 400–700; CCT "
+                          f"{'—' if joint.cct_k is None else f'{joint.cct_k:.0f} K'}, r {joint.planck_r:.2f} "
+                          f"against Planck {joint.planck_t:.0f} K, confidence {joint.confidence:.2f}."]
         lines += ["", "Refusals (first 200 characters):", ""]
         seen: dict[str, list[int]] = {}
         for r in rows:
@@ -278,6 +333,7 @@ def main(argv: list[str] | None = None) -> None:
                          "(github.com/yongwookkkkim/Diffraction-on-Optical-Disks, unwritten/)")
     t0 = time.perf_counter()
     results: list[FrameResult] = []
+    joints: dict[str, JointResult] = {}
     for name, disc in SERIES.items():
         path = Path(args.kim_dir) / name
         if not path.is_file():
@@ -294,9 +350,13 @@ def main(argv: list[str] | None = None) -> None:
             state = res.refused[:90] if res.refused else f"CCT {res.cct_k and round(res.cct_k)} r={res.planck_r:.2f}"
             print(f"{name}#{frame} θ={res.theta:g} first order {res.stated_first_order_nm:.0f} nm: {state}", flush=True)
         results += series
+        joints[name] = read_joint(series, disc)
+        j = joints[name]
+        print(f"{name} joint: " + (j.refused[:120] if j.refused else
+                                   f"frames {j.used}, CCT {j.cct_k and round(j.cct_k)} r={j.planck_r:.2f}"), flush=True)
         sheet = Path(args.sheet)
         contact_sheet(path, series, sheet.with_name(f"{sheet.stem}_{disc}{sheet.suffix}"))
-    text = report(results, time.perf_counter() - t0)
+    text = report(results, joints, time.perf_counter() - t0)
     Path(args.out).write_text(text + "\n")
     print(text)
 
