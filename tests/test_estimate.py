@@ -61,6 +61,7 @@ def test_estimate_recovers_known_spectra(tmp_path, capture, spd):
     assert data["wavelength_nm"] == list(range(380, 781, 5))
 
 
+@pytest.mark.slow  # three full estimates of one capture (11 s): make test only
 def test_exposure_does_not_change_the_spd(tmp_path, capture):
     """Unsaturated exposure ×k only scales the photo: the normalised SPD moves < 1 %."""
     spd = _warm_led()

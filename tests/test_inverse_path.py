@@ -98,7 +98,8 @@ def test_a_photo_the_product_refuses_is_not_a_training_sample(tmp_path, capture)
                            model_prior(load_model())) is None
 
 
-@pytest.mark.parametrize("camera", [DEFAULT_CAMERA, "generic"])
+# the generic camera repeats the check with a fitted profile (the slower case): make test only
+@pytest.mark.parametrize("camera", [DEFAULT_CAMERA, pytest.param("generic", marks=pytest.mark.slow)])
 def test_calibrated_in_camera_photo_gives_training_and_product_the_same_features(tmp_path, capture, camera):
     """An in-camera JPEG read with a CIE A calibration (its processing, and for the generic
     profile the camera's fitted sensitivities): the dataset and the estimator agree bit for bit."""

@@ -164,6 +164,7 @@ def test_junk_set_up_sections_are_refused_with_a_clear_message(tmp_path_factory,
     assert setup.aperture_mm > 0 and setup.source_size_mm > 0 and setup.kind in ("near-axis", "oblique")
 
 
+@pytest.mark.slow  # re-plans every shipped set-up (10 s): make test only
 def test_shipped_presets_are_what_the_planner_designs_now():
     done = subprocess.run([sys.executable, str(REPO / "tools" / "design_setups.py"), "--check"],
                           capture_output=True, text=True, cwd=REPO)
