@@ -212,3 +212,25 @@ def test_frames_of_one_lens_share_the_focal_length_their_outlines_give(rendered)
     half = _linear(box_downsample(on_table, 2), scale=2.0)
     assert series_focal_px([half], preset) == pytest.approx(focal, rel=0.03)
     assert series_focal_px([_linear(on_black)], preset) is None
+
+
+def test_the_frames_of_a_gif_given_together_share_one_lens(rendered, tmp_path):
+    """``estimate --joint anim.gif``: the frames, palette-quantised as a GIF stores them, give one
+    lens from the frames whose outline shows (the disc on a lit table), within 3 % of the truth,
+    which the frame on a black surround borrows; a single frame or a whole file is left alone."""
+    from PIL import Image
+
+    from cd_spectra_addon.core.inverse.batch import series_lenses
+    from cd_spectra_addon.core.photo.frames import with_frame
+
+    scene, on_table, on_black = rendered
+    _, focal, _ = _truth(scene)
+    frames = [Image.fromarray(np.rint(photo.srgb_encode(img) * 255).astype(np.uint8)).quantize(256)
+              for img in (on_black, on_table, on_table)]
+    gif = tmp_path / "sweep.gif"
+    frames[0].save(gif, save_all=True, append_images=frames[1:])
+    preset = load_preset("tripod-oblique").with_image_size(SIZE)
+    paths = [with_frame(gif, k) for k in range(3)]
+    lenses = series_lenses(paths, [preset] * 3)
+    assert set(lenses) == {str(gif)} and lenses[str(gif)] == pytest.approx(focal, rel=0.03)
+    assert series_lenses(paths[:1], [preset]) == {} and series_lenses([gif], [preset]) == {}

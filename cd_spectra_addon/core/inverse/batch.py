@@ -20,13 +20,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..errors import CDSpectraError
+from ..photo.frames import split_frame
 from ..photo.images import LinearImage, decoders_need_main_thread
 from ..scene.capture import Preset, load_preset
 from .estimate import estimate_image
 from .load import load_for_estimate
+from .stages import series_focal_px
 from .result import Estimate
 
-__all__ = ["Loaded", "prefetched", "estimate_photos"]
+__all__ = ["Loaded", "prefetched", "estimate_photos", "frame_file", "series_lenses"]
 
 
 @dataclass(frozen=True)
@@ -69,15 +72,51 @@ def prefetched(photos: Sequence[str | Path | LinearImage], presets: Preset | Seq
             yield loaded
 
 
+def frame_file(photo: str | Path | LinearImage) -> str | None:
+    """The file a frame (``FILE.gif#N``) comes from; None for a whole file or a loaded image."""
+    if isinstance(photo, LinearImage):
+        return None
+    file, frame = split_frame(photo)
+    return None if frame is None else str(file)
+
+
+def series_lenses(photos: Sequence[str | Path | LinearImage], presets: Sequence[Preset]) -> dict[str, float]:
+    """One lens per file for the frames of a GIF given together (one camera, one zoom): the median
+    of their disc outlines' focal length (:func:`.stages.series_focal_px`, file pixels), used by
+    the frames whose EXIF has none — a frame whose disc edge does not show borrows its neighbours'.
+    Frames that fail to load are left to the main loop to report."""
+    frames: dict[str, list[tuple[str | Path, Preset]]] = {}
+    for photo, preset in zip(photos, presets):
+        file = frame_file(photo)
+        if file is not None:
+            frames.setdefault(file, []).append((photo, preset))
+    lenses: dict[str, float] = {}
+    for file, given in frames.items():
+        if len(given) < 2:
+            continue
+        images = []
+        for photo, preset in given:
+            try:
+                images.append(load_for_estimate(photo, preset))
+            except (CDSpectraError, OSError):  # the main loop reports it
+                continue
+        focal = series_focal_px(images, given[0][1]) if images else None
+        if focal is not None:
+            lenses[file] = focal
+    return lenses
+
+
 def estimate_photos(paths: Sequence[str | Path], *, preset: str | Preset, **options: Any) -> Iterator[Estimate]:
     """``estimate_photo`` of each path in turn (same ``options``), the next one loading in the
     background. A generator: stop iterating and no further photo is read."""
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
-    for loaded in prefetched(paths, preset_obj):
+    lenses = series_lenses(paths, [preset_obj] * len(paths))
+    for path, loaded in zip(paths, prefetched(paths, preset_obj)):
         if loaded.error is not None:
             raise loaded.error  # the loader's own error for this photo
         assert loaded.image is not None
-        yield _timed(estimate_image(loaded.image, preset=preset_obj, **options), loaded.load_ms)
+        yield _timed(estimate_image(loaded.image, preset=preset_obj, series_focal=lenses.get(frame_file(path)),
+                                    **options), loaded.load_ms)
 
 
 def _timed(result: Estimate, load_ms: float) -> Estimate:

@@ -241,6 +241,10 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     if focal_source == "preset":
         warnings.append("no focal length in the photo's EXIF: assuming the preset's field of view")
         score *= 0.8
+    elif focal_source == "series outline":
+        warnings.append("no focal length in the photo's EXIF: taken from the disc's outline in the other frames "
+                        "of its file and the preset's camera distance")
+        score *= 0.9
     elif focal_source == "outline":
         warnings.append("no focal length in the photo's EXIF: taken from the disc's outline and the preset's "
                         "camera distance")
@@ -274,9 +278,11 @@ def resolved_calibration(calibration: str | Path | Calibration | None) -> Calibr
 
 def read_image(image: LinearImage, preset: Preset, camera: str, calibration: Calibration | None,
                model: SpectralModel | None, *, focal_px: float | None = None, fit: PoseFit | None = None,
-               progress: Progress | None = None, min_coverage_nm: float = MIN_COVERAGE_NM) -> PhotoReading:
+               progress: Progress | None = None, min_coverage_nm: float = MIN_COVERAGE_NM,
+               series_focal: float | None = None) -> PhotoReading:
     """The camera profile for the photo, then the pose and readout stages (:mod:`.stages`;
-    ``min_coverage_nm``: the first order's share of 400–700 nm below which it is refused)."""
+    ``min_coverage_nm``: the first order's share of 400–700 nm below which it is refused;
+    ``series_focal``: the lens of the photo's series, file pixels, where its EXIF has none)."""
     report = progress or (lambda _f, _m: None)
     cam, generic, name, note = resolve_camera(camera, image, model)
     if calibration is not None and calibration.sensitivities is not None:
@@ -284,7 +290,7 @@ def read_image(image: LinearImage, preset: Preset, camera: str, calibration: Cal
         note = None  # the calibration measured the camera: no "not one of the profiles" warning
     report(0.2, "Finding the disc")
     posed = pose_photo(image, preset, cam, generic_camera=generic, calibration=calibration, focal_px=focal_px,
-                       fit=fit)
+                       fit=fit, series_focal=series_focal)
     report(0.5, "Reading the rainbow")
     return PhotoReading(image, read_posed(posed, min_coverage_nm=min_coverage_nm), name, note)
 
@@ -380,6 +386,7 @@ def estimate_image(
     fit: PoseFit | None = None,
     fusion: tuple[float, float] | None = None,
     rendition: bool = True,
+    series_focal: float | None = None,
 ) -> Estimate:
     """Estimate from an already loaded photo (see :func:`estimate_photo`).
 
@@ -387,6 +394,8 @@ def estimate_image(
     product), "prior" (physics under the Gaussian prior only) or "physics" (smoothness-regularised
     physics only), the benchmark's operating points. ``fusion`` overrides the model's (strength,
     floor). ``rendition=False`` skips the colour-rendition figures (bulk runs that want spectra only).
+    ``series_focal``: the lens of the photo's series (file pixels; the frames of a GIF), used where
+    the EXIF has none.
     """
     if method not in OPERATING_POINTS:
         raise CDSpectraError(f"unknown method {method!r}; known: {', '.join(OPERATING_POINTS)}")
@@ -395,7 +404,8 @@ def estimate_image(
     preset_obj = preset if isinstance(preset, Preset) else load_preset(preset)
     mdl = resolved_model(model)
     cal = resolved_calibration(calibration)
-    photo = read_image(image, preset_obj, camera, cal, mdl, focal_px=focal_px, fit=fit, progress=progress)
+    photo = read_image(image, preset_obj, camera, cal, mdl, focal_px=focal_px, fit=fit, progress=progress,
+                       series_focal=series_focal)
     report(0.6, "Solving for the spectrum")
     t2 = time.perf_counter()
     result = spectrum(photo.reading, method, mdl, fusion)

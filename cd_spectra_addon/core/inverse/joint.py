@@ -31,7 +31,7 @@ from ..pose.result import PoseFit
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset
 from ..spectra.colour import DEFAULT_WORKING_SPACE
 from ..spectrum.model import SpectralModel
-from .batch import prefetched
+from .batch import frame_file, prefetched, series_lenses
 from .estimate import AUTO, PhotoReading, estimate_result, read_image, resolved_calibration, resolved_model
 from .joint_checks import joint_confidence, photo_entry, settled_spectrum
 from .result import METHOD_MODEL, Estimate
@@ -131,6 +131,7 @@ def estimate_joint(
     errors: list[BaseException] = []
     total = len(photos)
     least = MIN_COVERAGE_NM if total == 1 else PART_MIN_COVERAGE_NM
+    lenses = series_lenses(photos, presets)
     for k, loaded in enumerate(prefetched(photos, presets)):
         report(0.8 * k / total, f"photo {k + 1} of {total}: {Path(loaded.source).name}")
         try:
@@ -138,7 +139,7 @@ def estimate_joint(
                 raise loaded.error
             assert loaded.image is not None
             photo = read_image(loaded.image, presets[k], camera, cal, mdl, fit=None if fits is None else fits[k],
-                               min_coverage_nm=least)
+                               min_coverage_nm=least, series_focal=lenses.get(frame_file(photos[k])))
         except REFUSALS as exc:
             errors.append(exc)
             entries.append(_refusal(loaded.source, exc))

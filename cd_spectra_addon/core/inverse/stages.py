@@ -83,7 +83,7 @@ class Posed:
     excluded: NDArray[np.bool_]  # clipped or not-a-number pixels
     clipped_share: float
     focal_px: float
-    focal_source: str  # "exif", "exif-35mm", "outline", "preset" or "given"
+    focal_source: str  # "exif", "exif-35mm", "outline", "series outline", "preset" or "given"
     fit: PoseFit
     timing_ms: dict[str, float] = field(default_factory=dict)
 
@@ -206,6 +206,7 @@ def pose_photo(
     calibration: Calibration | None = None,
     focal_px: float | None = None,
     fit: PoseFit | None = None,
+    series_focal: float | None = None,
     strategies: Sequence[str] = CHEAP,
     escalations: Sequence[str] = ESCALATIONS,
 ) -> Posed:
@@ -224,7 +225,9 @@ def pose_photo(
     source = "given"
     if focal_px is None:
         focal_px, source = focal_px_for(image, preset)
-        if source == "preset":
+        if source == "preset" and series_focal is not None:
+            focal_px, source = series_focal / image.scale, "series outline"
+        elif source == "preset":
             focal_px, source = focal_px_from_photo(image, preset, focal_px)
     rgb = np.asarray(image.rgb, dtype=np.float64)
     if calibration is not None and calibration.pipeline is not None:
