@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from ..errors import CDSpectraError
 from ..numerics.least_squares import levenberg_marquardt
+from ..photo.clipping import HIGH_CODE, LOW_CODE
 from ..photo.srgb import srgb_decode, srgb_encode, srgb_encode_slope
 
 __all__ = ["CameraPipeline", "fit_pipeline", "CURVE_KNOTS"]
@@ -69,11 +70,19 @@ class CameraPipeline:
         coded = np.interp(srgb_encode(display), self.curve_in, self.curve_out)
         return srgb_decode(np.clip(coded, 0.0, 1.0))
 
+    def to_display(self, file_linear: NDArray[np.floating]) -> NDArray[np.float64]:
+        """The tone curve undone: (..., 3) loaded file values → linear display RGB, where the
+        camera clipped (and where a clipped channel is a bound: :mod:`..photo.clipping`)."""
+        coded = srgb_encode(np.clip(np.asarray(file_linear, np.float64), 0.0, 1.0))
+        return srgb_decode(np.clip(np.interp(coded, self.curve_out, self.curve_in), 0.0, 1.0))
+
+    def display_to_native(self, display: NDArray[np.floating]) -> NDArray[np.float64]:
+        """The matrix undone: (..., 3) linear display RGB → camera-native linear."""
+        return np.asarray(display, np.float64) @ np.linalg.inv(self.matrix).T
+
     def to_native(self, file_linear: NDArray[np.floating]) -> NDArray[np.float64]:
         """Inverse: (..., 3) loaded file values → camera-native linear (exact where nothing clipped)."""
-        coded = srgb_encode(np.clip(np.asarray(file_linear, np.float64), 0.0, 1.0))
-        display = srgb_decode(np.clip(np.interp(coded, self.curve_out, self.curve_in), 0.0, 1.0))
-        return display @ np.linalg.inv(self.matrix).T
+        return self.display_to_native(self.to_display(file_linear))
 
     def to_json(self) -> dict[str, Any]:
         return {"matrix": np.round(self.matrix, 8).tolist(), "curve_in": np.round(self.curve_in, 6).tolist(),
@@ -94,26 +103,32 @@ def _curve(params: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating],
-                 weight: NDArray[np.floating] | None = None) -> CameraPipeline:
+                 weight: NDArray[np.floating] | None = None, low: NDArray[np.bool_] | None = None,
+                 high: NDArray[np.bool_] | None = None) -> CameraPipeline:
     """The pipeline that best maps ``predicted`` camera-native RGB (N, 3), known up to one scale,
     to the ``observed`` loaded file values (N, 3) of the same pixels.
 
     Residuals are taken in the sRGB-encoded domain, where 8-bit codes have uniform steps; a
-    small smoothness penalty on the curve's slopes keeps knots beyond the data tame. Refuses
-    (CDSpectraError) when too few pixels carry light to fit 9 + K parameters."""
+    small smoothness penalty on the curve's slopes keeps knots beyond the data tame. ``low`` /
+    ``high`` (N, 3) mark channels the camera clipped (:mod:`..photo.clipping`): censored, they
+    only penalise a model that comes out above the floor's code / below the full-scale code.
+    Refuses (CDSpectraError) when too few pixels carry light to fit 9 + K parameters."""
     obs = np.asarray(observed, np.float64).reshape(-1, 3)
     pred = np.asarray(predicted, np.float64).reshape(-1, 3)
     w = np.ones(obs.shape[0]) if weight is None else np.asarray(weight, np.float64).reshape(-1)
+    lo = np.zeros(obs.shape, bool) if low is None else np.asarray(low, bool).reshape(-1, 3)
+    hi = np.zeros(obs.shape, bool) if high is None else np.asarray(high, bool).reshape(-1, 3)
     ok = np.all(np.isfinite(obs), axis=1) & np.all(np.isfinite(pred), axis=1) & (w > 0) & (pred.sum(axis=1) > 0)
-    obs, pred, w = obs[ok], pred[ok], w[ok]
+    obs, pred, w, lo, hi = obs[ok], pred[ok], w[ok], lo[ok], hi[ok]
     if obs.shape[0] < MIN_FIT_PIXELS:
         raise CDSpectraError(f"only {obs.shape[0]} rainbow pixels to fit the camera's processing from "
                              f"(need {MIN_FIT_PIXELS}): use a brighter, larger calibration photo")
     if obs.shape[0] > MAX_FIT_PIXELS:
         pick = np.random.default_rng(0).choice(obs.shape[0], MAX_FIT_PIXELS, replace=False)
-        obs, pred, w = obs[pick], pred[pick], w[pick]
+        obs, pred, w, lo, hi = obs[pick], pred[pick], w[pick], lo[pick], hi[pick]
     pred = pred / float(np.max(pred))
     target = srgb_encode(np.clip(obs, 0.0, 1.0))
+    target = np.where(lo, LOW_CODE / 255.0, np.where(hi, HIGH_CODE / 255.0, target))  # the bounds
     sw = np.sqrt(w / w.mean())[:, None]
     knots = np.linspace(0.0, 1.0, CURVE_KNOTS)
     # Start: identity curve, the linear least-squares matrix from native to file-linear.
@@ -134,24 +149,30 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
         out = _curve(x[9:])
         return display, clipped, coded, seg, frac, out
 
+    def active(model: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Where a residual counts: every value; a bound only where the model crosses it."""
+        return ~((lo & (model <= target)) | (hi & (model >= target)))
+
     def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
         _, _, _, seg, frac, out = parts(x)
         model = out[seg] + (out[seg + 1] - out[seg]) * frac
         smooth = penalty * np.diff(x[9:] - np.log(steps))
-        return np.concatenate([((model - target) * sw).reshape(-1), smooth])
+        return np.concatenate([(np.where(active(model), model - target, 0.0) * sw).reshape(-1), smooth])
 
     def jacobian(x: NDArray[np.float64]) -> NDArray[np.float64]:
         display, clipped, _, seg, frac, out = parts(x)
+        model = out[seg] + (out[seg + 1] - out[seg]) * frac
+        on = active(model)
         slope = (out[seg + 1] - out[seg]) / steps[seg]
         dcode = srgb_encode_slope(display)
-        gain = np.where(clipped, 0.0, slope * dcode) * sw  # (N, 3)
+        gain = np.where(clipped | ~on, 0.0, slope * dcode) * sw  # (N, 3)
         jac = np.zeros((3 * n + k - 2, 9 + k - 1))
         for c in range(3):
             jac[c:3 * n:3, 3 * c:3 * c + 3] = gain[:, c:c + 1] * pred
         inc = np.exp(x[9:])  # d out[i] / d x[j] = inc[j] for j < i
         j_idx = np.arange(k - 1)
         rows = (j_idx[None, None, :] < seg[..., None]) + (j_idx[None, None, :] == seg[..., None]) * frac[..., None]
-        jac[:3 * n, 9:] = (rows * inc * sw[..., None]).reshape(3 * n, k - 1)
+        jac[:3 * n, 9:] = (rows * inc * (sw * on)[..., None]).reshape(3 * n, k - 1)
         for j in range(k - 2):
             jac[3 * n + j, 9 + j] = -penalty
             jac[3 * n + j, 10 + j] = penalty

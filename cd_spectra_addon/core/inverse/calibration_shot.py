@@ -26,6 +26,7 @@ from ..errors import CDSpectraError, NoDiscError
 from .load import load_for_estimate
 from .estimate import AUTO, camera_prior_for, resolve_camera
 from ..readout.forward_matrix import feature_matrix
+from ..photo.clipping import clipped_channels
 from ..photo.images import LinearImage
 from ..spectrum.model import load_model
 from ..spectra.grid import WAVELENGTHS_NM
@@ -73,11 +74,16 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
             readout = first.uncalibrated
             predicted = np.einsum("bcl,l->bc", feature_matrix(first.response, own), ref)
             bins = readout.pixel_bin
-            use = readout.valid[bins] & (readout.pixel_weight > 0)
-            observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[readout.pixels.index]
-            fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None])
+            index = readout.pixels.index
+            low, high = (m.reshape(-1, 3)[index] for m in clipped_channels(image.rgb, image.saturated))
+            # Pixels the readout left out as saturated are read too: their clipped channels are bounds.
+            use = readout.valid[bins] & ((readout.pixel_weight > 0) | np.asarray(image.saturated).reshape(-1)[index])
+            observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[index]
+            fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None],
+                                  low=low[use], high=high[use])
             undo = Calibration("pipeline", np.ones_like(predicted), preset.name, camera.name, {}, fitted)
-            analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit)
+            analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit,
+                                  known_spd=ref)
         if prior is not None:
             sensitivities = fit_sensitivities(analysis.uncalibrated, analysis.response, ref, prior)
             own = CameraProfile(camera.name, sensitivities)
