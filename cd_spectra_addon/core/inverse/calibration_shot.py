@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from .stages import Reading, read_photo
 from ..calibration.calibration import (PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, PIPELINE_SMOOTH_BINS, Calibration, fit_gains,
-                          new_metadata, save_calibration)
+                          new_metadata, save_calibration, unexplained_share)
 from ..calibration.camera_fit import CameraPrior, fit_sensitivities
 from ..calibration.camera_pipeline import fit_pipeline
 from ..spectra.cameras import GENERIC_CAMERA, CameraProfile
@@ -93,7 +93,10 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
     limits = {} if fitted is None else {"min_signal": PIPELINE_MIN_SIGNAL, "limits": PIPELINE_GAIN_LIMITS,
                                            "smooth_bins": PIPELINE_SMOOTH_BINS}
     gains = fit_gains(analysis.uncalibrated.values, analysis.uncalibrated.valid, predicted, **limits)
-    return Calibration(name, gains, preset.name, camera.name, dict(metadata or {}), fitted, sensitivities), analysis
+    meta = {**dict(metadata or {}),
+            "unexplained": round(unexplained_share(analysis.uncalibrated.values, analysis.uncalibrated.valid,
+                                                   predicted), 4)}
+    return Calibration(name, gains, preset.name, camera.name, meta, fitted, sensitivities), analysis
 
 
 def gains_from_image(image: LinearImage, reference_spd: NDArray[np.float64], preset: Preset,
