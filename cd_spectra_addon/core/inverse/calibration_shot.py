@@ -19,7 +19,7 @@ from .stages import Reading, read_photo
 from ..calibration.calibration import (PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, PIPELINE_SMOOTH_BINS, Calibration, fit_gains,
                           new_metadata, save_calibration, unexplained_share)
 from ..calibration.camera_fit import CameraPrior, fit_sensitivities
-from ..calibration.camera_pipeline import fit_pipeline
+from ..calibration.camera_pipeline import FAMILY, fit_pipeline
 from ..spectra.cameras import GENERIC_CAMERA, CameraProfile
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset
 from ..errors import CDSpectraError, NoDiscError
@@ -79,8 +79,10 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
             # Pixels the readout left out as saturated are read too: their clipped channels are bounds.
             use = readout.valid[bins] & ((readout.pixel_weight > 0) | np.asarray(image.saturated).reshape(-1)[index])
             observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[index]
+            # Later rounds refit the member of the family the first round chose.
+            family = FAMILY if fitted is None else ((fitted.tone, fitted.gamut),)
             fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None],
-                                  low=low[use], high=high[use])
+                                  low=low[use], high=high[use], family=family)
             undo = Calibration("pipeline", np.ones_like(predicted), preset.name, camera.name, {}, fitted)
             analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit,
                                   known_spd=ref)
