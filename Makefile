@@ -24,7 +24,8 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 	tests/test_core_imports.py tests/test_illuminants.py tests/test_planner.py tests/test_setups.py \
 	tests/test_capture_pose.py tests/test_general_pose.py tests/test_pose_recovery.py tests/test_disc_window.py tests/test_camera_fit.py \
 	tests/test_jpeg_chroma.py tests/test_measured_setups.py tests/test_capture_advice.py \
-	tests/test_cli_joint.py tests/test_joint_estimate.py tests/test_rendition.py tests/test_censoring.py
+	tests/test_cli_joint.py tests/test_joint_estimate.py tests/test_rendition.py tests/test_censoring.py \
+	tests/test_rendering_family.py
 
 # The tests run on both cores: pytest-xdist with one worker per core, each test file on one worker
 # (--dist loadfile: a module's fixtures, e.g. its rendered capture or the hostile-input runs, are
