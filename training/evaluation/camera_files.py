@@ -138,7 +138,7 @@ ROWS: list[tuple[str, Row]] = [
 ]
 
 
-class _Shooter:
+class Shooter:
     def __init__(self, tmp: Path, size: int):
         self.tmp = tmp
         self.scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
@@ -202,7 +202,7 @@ def _styles(row: Row, n_lamps: int) -> list[InCameraStyle | None]:
     return [styles[i % 3] for i in range(n_lamps)]
 
 
-def run_row(shooter: _Shooter, row: Row, lamps: list[Lamp], model: Any, held: list[str]) -> dict[str, Any]:
+def run_row(shooter: Shooter, row: Row, lamps: list[Lamp], model: Any, held: list[str]) -> dict[str, Any]:
     preset = shooter.scene.preset
     styles = _styles(row, len(lamps))
     calibrations: dict[tuple[InCameraStyle | None, str], Calibration] = {}
@@ -336,7 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = ROWS if not args.rows else [ROWS[int(i) - 1] for i in args.rows.split(",")]
     results = []
     with tempfile.TemporaryDirectory() as tmp:
-        shooter = _Shooter(Path(tmp), args.size)
+        shooter = Shooter(Path(tmp), args.size)
         for section, row in rows:
             t1 = time.perf_counter()
             summary = run_row(shooter, row, lamps, model, held)

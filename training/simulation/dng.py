@@ -86,12 +86,14 @@ def dng_bytes(
     pattern: tuple[int, int, int, int] = CFA_RGGB,
     software: str = "cd-spectra test writer",
     seed: int | None = 0,
+    colour_matrix: NDArray[np.floating] | None = None,
 ) -> bytes:
     """A DNG of linear camera RGB (full scale 1.0 = ``white``, 0 = ``black``).
 
     Mosaic DNGs have twice ``rgb``'s size per side (one 2×2 cell per pixel), or take a (2H, 2W)
     array of photosite values as it is (noise added per photosite); linear DNGs ``rgb``'s size. Values are quantised to integer codes (with ±0.5 code dither when ``seed`` is not
-    None, so the mean is unbiased) and clipped at ``white`` like a sensor."""
+    None, so the mean is unbiased) and clipped at ``white`` like a sensor. ``colour_matrix``:
+    the (3, 3) XYZ (D65) → camera ColorMatrix1 LibRaw renders with (default: a plausible one)."""
     rgb = np.asarray(rgb, dtype=np.float64)
     data = rgb if linear or rgb.ndim == 2 else mosaic(rgb, pattern)
     codes = black + data * (white - black)
@@ -128,8 +130,10 @@ def dng_bytes(
         ifd0.add(50711, 3, 1)  # CFALayout: rectangular
     ifd0.add(50714, 4, [black] * samples)  # BlackLevel
     ifd0.add(50717, 4, [white] * samples)  # WhiteLevel
-    # A plausible camera → XYZ (D65) matrix: LibRaw wants one; the product never applies it.
-    ifd0.add(50721, 10, [0.6722, -0.0635, -0.0963, -0.4287, 1.2460, 0.2028, -0.0908, 0.2162, 0.5668])
+    # XYZ (D65) → camera: LibRaw wants one (a plausible one unless given); the product never applies it.
+    matrix = ([0.6722, -0.0635, -0.0963, -0.4287, 1.2460, 0.2028, -0.0908, 0.2162, 0.5668] if colour_matrix is None
+              else [float(v) for v in np.asarray(colour_matrix, np.float64).reshape(9)])
+    ifd0.add(50721, 10, matrix)
     ifd0.add(50778, 3, 21)  # CalibrationIlluminant1: D65
     ifd0.add(50728, 5, [0.5, 1.0, 0.7])  # AsShotNeutral
     return _assemble(ifd0, _exif_ifd(focal_length_mm, focal_plane_px_per_mm), pixels)

@@ -39,8 +39,17 @@ PIPELINE_GAIN_LIMITS = (0.02, 50.0)
 PIPELINE_MIN_SIGNAL = 0.001
 PIPELINE_SMOOTH_BINS = 1
 SMOOTH_BINS = 2  # gains are smoothed over ±2 bins (±10 nm of λ₁)
+# How well a calibration explains its own photo: the weighted RMS of (measured − predicted) /
+# peak over the bins, the known lamp scaled to the photo, before any gains. Above this the
+# model of the camera (its processing, its sensitivities) cannot undo what the photo shows and
+# the gains are doing the work for this one lamp only. 3× the worst of the calibration's own
+# family (training/simulation/camera_pipelines.py, the typical and three sampled renderings,
+# a CIE A shot, 192 px: 0.4–1.5 %; raw files 0.2–0.3 %), never chosen on held-out renderings or lamps.
+EXPLAIN_LIMIT = 0.05
+POOR_CALIBRATION_CONFIDENCE = 0.6
 
-__all__ = ["ENV_DIR", "Calibration", "calibration_dir", "set_default_directory", "fit_gains",
+__all__ = ["ENV_DIR", "Calibration", "calibration_dir", "set_default_directory", "fit_gains", "unexplained_share",
+           "calibration_warning", "EXPLAIN_LIMIT", "POOR_CALIBRATION_CONFIDENCE",
            "save_calibration", "load_calibration", "list_calibrations"]
 
 
@@ -91,6 +100,32 @@ def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted
     # Normalise so the gains only reshape: the median strong gain is 1.
     med = float(np.median(gains[strong])) if np.any(strong) else 1.0
     return np.clip(gains / med, *limits)
+
+
+def unexplained_share(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted: NDArray[np.float64]) -> float:
+    """What a calibration leaves unexplained in its own photo: the signal-weighted RMS of
+    measured − s·predicted over the valid bins, relative to the peak (s: least squares)."""
+    ok = valid[:, None] & np.isfinite(measured) & np.isfinite(predicted)
+    y, p = measured[ok], predicted[ok]
+    if y.size == 0 or not np.any(p > 0):
+        return 1.0
+    s = float(y @ p) / max(float(p @ p), 1e-300)
+    peak = float(np.max(np.abs(y))) or 1.0
+    w = np.abs(p) / max(float(np.sum(np.abs(p))), 1e-300)
+    return float(np.sqrt(np.sum(w * (y - s * p) ** 2))) / peak
+
+
+def calibration_warning(calibration: Calibration) -> str | None:
+    """The user's warning when ``calibration`` could not explain its own photo (None when it did)."""
+    share = calibration.metadata.get("unexplained")
+    if not isinstance(share, (int, float)) or share <= EXPLAIN_LIMIT:
+        return None
+    what = ("the camera's processing of this file" if calibration.pipeline is not None
+            else "this camera and disc")
+    return (f"calibration {calibration.name!r} cannot explain its own photo ({100 * share:.0f}% of the rainbow's "
+            f"signal is left unexplained, {100 * EXPLAIN_LIMIT:.0f}% at most is expected): the model of {what} does "
+            "not fit, so estimates with it are unreliable — shoot RAW, or turn off the camera's HDR, local tone "
+            "mapping and vivid or creative picture styles, fix the white balance, and calibrate again")
 
 
 def _safe_name(name: str) -> str:

@@ -17,15 +17,16 @@ from numpy.typing import NDArray
 
 from .stages import Reading, read_photo
 from ..calibration.calibration import (PIPELINE_GAIN_LIMITS, PIPELINE_MIN_SIGNAL, PIPELINE_SMOOTH_BINS, Calibration, fit_gains,
-                          new_metadata, save_calibration)
+                          new_metadata, save_calibration, unexplained_share)
 from ..calibration.camera_fit import CameraPrior, fit_sensitivities
-from ..calibration.camera_pipeline import fit_pipeline
+from ..calibration.camera_pipeline import FAMILY, fit_pipeline
 from ..spectra.cameras import GENERIC_CAMERA, CameraProfile
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset
 from ..errors import CDSpectraError, NoDiscError
 from .load import load_for_estimate
 from .estimate import AUTO, camera_prior_for, resolve_camera
 from ..readout.forward_matrix import feature_matrix
+from ..photo.clipping import clipped_channels
 from ..photo.images import LinearImage
 from ..spectrum.model import load_model
 from ..spectra.grid import WAVELENGTHS_NM
@@ -73,11 +74,18 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
             readout = first.uncalibrated
             predicted = np.einsum("bcl,l->bc", feature_matrix(first.response, own), ref)
             bins = readout.pixel_bin
-            use = readout.valid[bins] & (readout.pixel_weight > 0)
-            observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[readout.pixels.index]
-            fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None])
+            index = readout.pixels.index
+            low, high = (m.reshape(-1, 3)[index] for m in clipped_channels(image.rgb, image.saturated))
+            # Pixels the readout left out as saturated are read too: their clipped channels are bounds.
+            use = readout.valid[bins] & ((readout.pixel_weight > 0) | np.asarray(image.saturated).reshape(-1)[index])
+            observed = np.asarray(image.rgb, np.float64).reshape(-1, 3)[index]
+            # Later rounds refit the member of the family the first round chose.
+            family = FAMILY if fitted is None else ((fitted.tone, fitted.gamut),)
+            fitted = fit_pipeline(observed[use], predicted[bins[use]] * readout.pixels.amplitude[use, None],
+                                  low=low[use], high=high[use], family=family)
             undo = Calibration("pipeline", np.ones_like(predicted), preset.name, camera.name, {}, fitted)
-            analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit)
+            analysis = read_photo(image, preset, camera, generic_camera=generic_camera, calibration=undo, fit=first.fit,
+                                  known_spd=ref)
         if prior is not None:
             sensitivities = fit_sensitivities(analysis.uncalibrated, analysis.response, ref, prior)
             own = CameraProfile(camera.name, sensitivities)
@@ -87,7 +95,10 @@ def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], pres
     limits = {} if fitted is None else {"min_signal": PIPELINE_MIN_SIGNAL, "limits": PIPELINE_GAIN_LIMITS,
                                            "smooth_bins": PIPELINE_SMOOTH_BINS}
     gains = fit_gains(analysis.uncalibrated.values, analysis.uncalibrated.valid, predicted, **limits)
-    return Calibration(name, gains, preset.name, camera.name, dict(metadata or {}), fitted, sensitivities), analysis
+    meta = {**dict(metadata or {}),
+            "unexplained": round(unexplained_share(analysis.uncalibrated.values, analysis.uncalibrated.valid,
+                                                   predicted), 4)}
+    return Calibration(name, gains, preset.name, camera.name, meta, fitted, sensitivities), analysis
 
 
 def gains_from_image(image: LinearImage, reference_spd: NDArray[np.float64], preset: Preset,

@@ -28,7 +28,7 @@ from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
 from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
                      spectrum)
-from ..calibration.calibration import Calibration, load_calibration
+from ..calibration.calibration import POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_warning, load_calibration
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from ..scene.capture import DEFAULT_PRESET, Preset, Scene, load_preset
@@ -311,6 +311,10 @@ def photo_checks(photo: PhotoReading, spd: NDArray[np.float64], preset: Preset,
         warnings.append(f"calibration {cal.name!r} was made with the {cal.camera} profile but this estimate uses "
                         f"{camera}: its gains are relative to that profile — pick the same camera")
         confidence *= 0.85
+    poor = None if cal is None else calibration_warning(cal)
+    if poor:
+        warnings.append(poor)
+        confidence *= POOR_CALIBRATION_CONFIDENCE
     if image.processed and cal is None:
         warnings.append(f"this file was processed by the camera or an editor ({image.processed_reason}): white "
                         "balance, a colour matrix and a tone curve change the rainbow's colours, so the spectrum "

@@ -34,6 +34,8 @@ from numpy.typing import NDArray
 
 from ..readout.ambient import dark_offset, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration
+from ..calibration.censoring import uncensor
+from ..photo.clipping import clipped_channels
 from ..spectra.cameras import CameraProfile
 from ..spectra.grid import VISIBLE_NM
 from ..scene.capture import Preset, Scene
@@ -86,6 +88,10 @@ class Posed:
     focal_source: str  # "exif", "exif-35mm", "outline", "series outline", "preset" or "given"
     fit: PoseFit
     timing_ms: dict[str, float] = field(default_factory=dict)
+    # A calibrated in-camera file: its linear display RGB (tone curve undone, matrix not) and
+    # the channels it clipped (low, high), which the readout reads as bounds.
+    display: NDArray[np.float64] | None = None
+    clipped: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None
 
 
 @dataclass
@@ -230,15 +236,20 @@ def pose_photo(
         elif source == "preset":
             focal_px, source = focal_px_from_photo(image, preset, focal_px)
     rgb = np.asarray(image.rgb, dtype=np.float64)
+    display, clipped_masks = None, None
     if calibration is not None and calibration.pipeline is not None:
-        rgb = calibration.pipeline.to_native(rgb)  # undo the camera's matrix and tone curve (JPEG/HEIC)
+        # Undo the camera's tone curve, then its matrix (JPEG/HEIC); what it clipped stays a bound.
+        display = calibration.pipeline.to_display(rgb)
+        rgb = calibration.pipeline.display_to_native(display)
+        clipped_masks = clipped_channels(image.rgb, image.saturated)
     excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
     if fit is None:
         fit = fit_pose(rgb - rough_offset(rgb, excluded), preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations)
     return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
-                 fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3})
+                 fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3}, display=display,
+                 clipped=clipped_masks)
 
 
 def covered_nm(readout: Readout) -> list[tuple[float, float]]:
@@ -276,12 +287,14 @@ def _ordinals(orders: Sequence[int]) -> str:
 
 
 def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
-               min_coverage_nm: float = MIN_COVERAGE_NM) -> Reading:
+               min_coverage_nm: float = MIN_COVERAGE_NM,
+               known_spd: NDArray[np.float64] | None = None) -> Reading:
     """The readout stage (see the module doc). ``pixels`` are the fitted scene's per-pixel
     diffraction coordinates when the caller already has them (a cache: they depend on the scene
-    alone). Raises :class:`NoDiscError` where no CD rainbow is found, or where its first order
-    holds less than ``min_coverage_nm`` of 400–700 nm, saying what to move. A joint estimate
-    lowers that: another photo supplies the rest (:mod:`.joint`)."""
+    alone); ``known_spd``, the lamp when it is known (a calibration shot: clipped channels are
+    resolved against it). Raises :class:`NoDiscError` where no CD rainbow is found, or where its
+    first order holds less than ``min_coverage_nm`` of 400–700 nm, saying what to move. A joint
+    estimate lowers that: another photo supplies the rest (:mod:`.joint`)."""
     t1 = time.perf_counter()
     image, rgb, excluded, fit = posed.image, posed.rgb, posed.excluded, posed.fit
     height, width, _ = rgb.shape
@@ -290,8 +303,12 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     # is uncertain: the same readout and offset as from every pixel (tests/test_pixel_survey.py).
     lobe: PixelDiffraction | LobePixels = readout_pixels(scene) if pixels is None else pixels
     ambient = dark_offset(rgb, scene, excluded, lobe)
-    measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, excluded, scene,
-                               lobe.pixels if isinstance(lobe, LobePixels) else lobe)
+    per_pixel = lobe.pixels if isinstance(lobe, LobePixels) else lobe
+    response = None
+    if posed.display is not None and posed.calibration is not None and posed.calibration.pipeline is not None:
+        measured, response = _censored_readout(posed, scene, per_pixel, ambient, known_spd)
+    else:
+        measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, excluded, scene, per_pixel)
     t2 = time.perf_counter()
     readout = _with_gains(measured, posed.calibration)
     found = fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST or fit.lines_pinned
@@ -310,17 +327,31 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
-    response = bin_response(scene, readout)
+    if response is None:
+        response = bin_response(scene, readout)
     t3 = time.perf_counter()
     return Reading(posed=posed, scene=scene, readout=readout, uncalibrated=measured, response=response,
                    matrix=feature_matrix(response, posed.camera), ambient=ambient,
                    timing_ms={**posed.timing_ms, "readout": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 
+def _censored_readout(posed: Posed, scene: Scene, pixels: PixelDiffraction, ambient: NDArray[np.float64],
+                      known_spd: NDArray[np.float64] | None) -> tuple[Readout, NDArray[np.float64]]:
+    """A calibrated in-camera file's native readout, read in its display space with clipped
+    channels as bounds (:mod:`..calibration.censoring`), and its bin response."""
+    pipeline = posed.calibration.pipeline  # type: ignore[union-attr]
+    display = posed.display - ambient @ pipeline.matrix.T if np.any(ambient) else posed.display
+    measured = extract_readout(display, posed.image.invalid, scene, pixels, clipped=posed.clipped)
+    response = bin_response(scene, measured)
+    gains = posed.calibration.gains  # type: ignore[union-attr]
+    return uncensor(measured, pipeline.matrix, feature_matrix(response, posed.camera), gains, known_spd), response
+
+
 def read_photo(image: LinearImage, preset: Preset, camera: CameraProfile, *,
-               pixels: PixelDiffraction | None = None, **pose_options: Any) -> Reading:
+               pixels: PixelDiffraction | None = None, known_spd: NDArray[np.float64] | None = None,
+               **pose_options: Any) -> Reading:
     """Pose and readout stages in one call (``pose_options``: those of :func:`pose_photo`)."""
-    return read_posed(pose_photo(image, preset, camera, **pose_options), pixels)
+    return read_posed(pose_photo(image, preset, camera, **pose_options), pixels, known_spd=known_spd)
 
 
 def physics_spd(reading: Reading, prior: tuple[GaussianPrior, NDArray[np.float64]] | None) -> NDArray[np.float64]:

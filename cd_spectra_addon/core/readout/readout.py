@@ -24,6 +24,9 @@ from ..scene.diffraction import PixelDiffraction, pixel_diffraction
 from ..spectra.grid import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, MIN_VISIBILITY, N_FEATURES, feature_bins
 
 OUTLIER_MADS = 5.0
+# A bin's channel whose used pixels are clipped for more than this share of their weight is a
+# bound (at most / at least its value), not a value: see :mod:`..photo.clipping`.
+CENSOR_SHARE = 0.1
 MIN_BIN_WEIGHT = 2.0  # Σ visibility² of the pixels used — about two fully visible pixels (not Σ amplitude²:
 # the geometric gain is relative to the disc centre's irradiance, ~0.1 under a grazing lamp)
 
@@ -41,6 +44,9 @@ class Readout:
     pixels: PixelDiffraction  # the pixels used (after masks)
     pixel_bin: NDArray[np.int64]  # bin of each used pixel
     pixel_weight: NDArray[np.float64]  # final weight w of each used pixel (0 = rejected)
+    # (NB, 3) −1: the channel was clipped at the floor there (the true value is at most the
+    # value), +1: at full scale (at least); 0 or None: a value. Only for clipped in-camera files.
+    censored: NDArray[np.int8] | None = None
 
 
 @dataclass(frozen=True)
@@ -117,8 +123,11 @@ def extract_readout(
     scene: Scene,
     pixels: PixelDiffraction | None = None,
     min_visibility: float = MIN_VISIBILITY,
+    clipped: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None,
 ) -> Readout:
-    """Readout of a linear photo whose geometry is ``scene`` (same image size)."""
+    """Readout of a linear photo whose geometry is ``scene`` (same image size). ``clipped``:
+    (H, W, 3) masks of channels clipped low and high (an in-camera file's, with ``saturated``
+    None so that such pixels are read), which make the bins they dominate bounds."""
     height, width, _ = rgb.shape
     if tuple(scene.preset.camera.image_size_px) != (width, height):
         raise ValueError("scene image size does not match the photo")
@@ -168,6 +177,7 @@ def extract_readout(
     seen = np.bincount(b, weights=weight * px.visibility * px.visibility, minlength=N_FEATURES)
     valid = (seen >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
     values[~valid] = 0.0
+    censored = None if clipped is None else _censored(clipped, px.index, b, weight * vis2, wv2)
     return Readout(
         lambda_nm=FEATURE_LAMBDA_NM.copy(),
         values=values,
@@ -178,4 +188,19 @@ def extract_readout(
         pixels=px,
         pixel_bin=b,
         pixel_weight=weight,
+        censored=censored,
     )
+
+
+def _censored(clipped: tuple[NDArray[np.bool_], NDArray[np.bool_]], index: NDArray[np.intp], b: NDArray[np.int64],
+              w: NDArray[np.float64], total: NDArray[np.float64]) -> NDArray[np.int8]:
+    """(NB, 3): −1 / +1 where clipped-low / clipped-high pixels carry more than
+    :data:`CENSOR_SHARE` of a bin channel's weight ``w`` (the larger share wins)."""
+    out = np.zeros((N_FEATURES, 3), np.int8)
+    safe = np.where(total > 0, total, 1.0)
+    for c in range(3):
+        shares = [np.bincount(b, weights=w * np.asarray(m)[..., c].reshape(-1)[index], minlength=N_FEATURES) / safe
+                  for m in clipped]
+        low, high = shares
+        out[:, c] = np.where((low > CENSOR_SHARE) & (low >= high), -1, np.where(high > CENSOR_SHARE, 1, 0))
+    return out
