@@ -56,6 +56,12 @@ from ..pose.starts import CHEAP, ESCALATIONS
 from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 
 MIN_RAINBOW_CONTRAST = 0.3  # the fitted disc must explain the photo far better than a misplaced one
+# A capture pinned by thin lines (a small lamp: the self-consistency is flat a few px away) needs
+# less, but some: where its lines include the first order, the rainbow they hold must explain
+# the photo better than the same colours dealt out at random. Kim's frames pinned by first-order
+# lines: 0.09–0.59; a colourful photo without a disc whose blobs' edges a curve was moved
+# through: 0.00. (Lines of only higher orders put no first order on the tracks to judge.)
+MIN_PINNED_CONTRAST = 0.05
 MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum is worth solving for
 # Of 400–700 nm the first order must show this much on the tracks: with less, the spectrum is
 # mostly the prior's guess (a photo of 2nd–5th orders, a first order half in the infrared).
@@ -252,10 +258,22 @@ def pose_photo(
                  clipped=clipped_masks)
 
 
+def rainbow_found(fit: PoseFit) -> bool:
+    """The fitted capture shows a CD's rainbow: explained by it (MIN_RAINBOW_CONTRAST), or its
+    thin lines pinned it and hold a first order that explains the photo (MIN_PINNED_CONTRAST) or
+    only higher orders (then the refusal says so)."""
+    if fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST:
+        return True
+    return fit.lines_pinned and (fit.rainbow_contrast >= MIN_PINNED_CONTRAST or 1 not in fit.line_orders)
+
+
 def covered_nm(readout: Readout) -> list[tuple[float, float]]:
-    """The stretches of 400–700 nm that first-order pixels on the tracks show (bin edges, nm)."""
+    """The stretches of 400–700 nm that first-order pixels on the tracks show, clipped or not
+    (bin edges, nm)."""
     step = float(readout.lambda_nm[1] - readout.lambda_nm[0])
-    seen = (readout.weight > 0) & (readout.lambda_nm >= VISIBLE_NM[0]) & (readout.lambda_nm <= VISIBLE_NM[1])
+    # A clipped bin is held too: the first order lands there, and over-exposure has its own warning.
+    held = (readout.weight > 0) | (readout.saturated_fraction > 0)
+    seen = held & (readout.lambda_nm >= VISIBLE_NM[0]) & (readout.lambda_nm <= VISIBLE_NM[1])
     out: list[tuple[float, float]] = []
     for lam in readout.lambda_nm[seen]:
         lo, hi = max(float(lam) - step / 2, VISIBLE_NM[0]), min(float(lam) + step / 2, VISIBLE_NM[1])
@@ -311,7 +329,7 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, excluded, scene, per_pixel)
     t2 = time.perf_counter()
     readout = _with_gains(measured, posed.calibration)
-    found = fit.rainbow_contrast >= MIN_RAINBOW_CONTRAST or fit.lines_pinned
+    found = rainbow_found(fit)
     stretches = covered_nm(measured)
     if found and sum(b - a for a, b in stretches) < min_coverage_nm:
         name = Path(image.path).name or "the photo"

@@ -33,13 +33,12 @@ from numpy.typing import NDArray
 
 from ..numerics.least_squares import levenberg_marquardt
 from ..photo.resample import box_downsample, channel_sum
-from ..scene.capture import Disc, Preset
+from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, diffraction_along, project
-from ..scene.relative_pose import (N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, ray_diffraction,
-                                   scene_from_relative)
+from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
-from .rim_ellipse import disc_base, disc_ellipse
+from .rim_ellipse import Ellipse, disc_base, disc_ellipse
 from .self_consistency import ProfileGrid, SelfConsistency, footprint_v_span
 from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
 
@@ -70,13 +69,13 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # and the rings' own centre, one tier on, starts in the right one.)
 TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lines"), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
-# The fit is judged on the pixels the preset's capture puts on the disc's grating, widened by this
-# much (a capture the fit may still reach: camera and lamp some mm off, the disc a few degrees
-# tilted): a lit table, a lamp in the frame or objects around the disc are not the disc's to
-# explain, and a wide lobe over them must not look like a rainbow. One region for every start:
-# each start's own region (tried) made their costs incomparable, and on tripod-oblique with the
-# disc tilted 3° the fit then preferred a capture 5° off (MAE 0.03 → 0.23).
-DISC_MARGIN_MM = 15.0
+# Where the disc's outline shows, the fit is judged on the pixels inside it (semi-axes × this):
+# a lit table, a lamp in the frame or objects around the disc are not the disc's to explain, and
+# a wide lobe over them must not look like a rainbow. Elsewhere on the whole photo: a region
+# from the preset's capture (tried: its disc widened by 15 mm) cut off the disc of a photo whose
+# preset was 12° off (λ₁ 31 nm wrong against 0.7 nm), and each start's own region made the
+# starts' costs incomparable (tripod-oblique, disc tilted 3°: a capture 5° off, MAE 0.03 → 0.23).
+OUTLINE_MARGIN = 1.1
 # A photo whose best fit leaves more than this of its energy unexplained is not one the
 # self-consistency reads alone (the simulator's photos: < 0.04 with every pose error of
 # bench/pose_errors.md); there the photo's thin lines are sought (:mod:`.lines`) and, where they
@@ -129,16 +128,13 @@ class _Level:
         return footprint_v_span(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, f, self.full_size,
                                 self.focal_px, rel)
 
-    def on_disc(self, rel: RelativePose, disc: Disc) -> NDArray[np.bool_]:
-        """Flat mask of the level's pixels that the capture ``rel`` puts on the disc's grating,
-        widened by DISC_MARGIN_MM."""
+    def within(self, outline: Ellipse) -> NDArray[np.bool_]:
+        """Flat mask of the level's pixels inside the disc's outline (widened by OUTLINE_MARGIN)."""
         height, width = self.rgb.shape[:2]
         f = self.factor
         rows = np.repeat(np.arange(height) * f + (f - 1) / 2.0, width)
         cols = np.tile(np.arange(width) * f + (f - 1) / 2.0, height)
-        d = ray_diffraction(camera_rays(rows, cols, self.full_size, self.focal_px), rel, disc.pitch_um)
-        return d.hit & (d.radius_mm >= disc.grating_r_min_mm - DISC_MARGIN_MM) & \
-            (d.radius_mm <= disc.grating_r_max_mm + DISC_MARGIN_MM)
+        return outline.inside(rows, cols, OUTLINE_MARGIN)
 
     def sample(self, count: int, region: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
         """Flat indices of up to ``count`` pixels (sorted) of ``region`` (all where None): the
@@ -283,7 +279,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape
     size = (width, height)
-    outline = disc_ellipse(rgb, saturated, dark=False)
+    outline = disc_ellipse(rgb, saturated)
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
         rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
@@ -296,10 +292,10 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     samples: dict[str, _Sample] = {}
 
     def sample_for(level: str) -> _Sample:
-        """The level's pixel sample, on the disc as the preset places it (one for every start)."""
+        """The level's pixel sample, inside the disc's outline where it shows (one for every start)."""
         if level not in samples:
             lvl, count = levels[level]
-            samples[level] = _Sample.of(lvl, count, lvl.on_disc(ctx.nominal(), preset.disc))
+            samples[level] = _Sample.of(lvl, count, None if outline is None else lvl.within(outline))
         return samples[level]
 
     grids: dict[tuple[float, float, float], ProfileGrid] = {}

@@ -49,6 +49,14 @@ class Ellipse:
     lit: bool = True  # the disc brighter than its surround (a mask's moments), else darker (edges)
     image_size: tuple[int, int] | None = None  # (width, height) of the image it was found in
 
+    def inside(self, rows: NDArray[np.floating], cols: NDArray[np.floating], scale: float = 1.0) -> NDArray[np.bool_]:
+        """Which (row, col) positions lie inside the outline with its semi-axes times ``scale``."""
+        dr, dc = np.asarray(rows) - self.centre_px[0], np.asarray(cols) - self.centre_px[1]
+        c, s = math.cos(self.angle), math.sin(self.angle)
+        u = (dc * c - dr * s) / (scale * self.major_px)
+        v = (dc * s + dr * c) / (scale * self.minor_px)
+        return u * u + v * v <= 1.0
+
 
 def _otsu(values: NDArray[np.float64]) -> float:
     hist, edges = np.histogram(values, bins=256)
@@ -157,11 +165,7 @@ def disc_base(rgb: NDArray[np.floating], ellipse: Ellipse, saturated: NDArray[np
     is dark between the streaks), which the first-order model does not explain."""
     height, width = rgb.shape[:2]
     rows, cols = np.mgrid[0:height, 0:width]
-    dr, dc = rows - ellipse.centre_px[0], cols - ellipse.centre_px[1]
-    c, s = math.cos(ellipse.angle), math.sin(ellipse.angle)
-    u = (dc * c - dr * s) / (0.9 * ellipse.major_px)
-    v = (dc * s + dr * c) / (0.9 * ellipse.minor_px)
-    inside = u * u + v * v <= 1.0
+    inside = ellipse.inside(rows, cols, 0.9)
     if saturated is not None:
         inside &= ~np.asarray(saturated)
     if not np.any(inside):
