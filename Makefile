@@ -78,9 +78,12 @@ demo: setup
 		--plot out/demo/spd.png --blend out/demo/scene.blend
 	@echo "wrote out/demo/result.json, out/demo/spd.png, out/demo/scene.blend"
 
-# Re-make samples/cd_photo.jpg: CIE FL11 through the Cycles forward model (seeded).
+# Re-make samples/cd_photo.jpg: CIE FL11 through the Cycles forward model (seeded), in the default
+# preset (render_photo's --preset default is the estimator's, so the demo reads it as it was made).
+# 1024 px is the loader's working size: the phone's wide lens puts the disc ~420 px across (at 512 px,
+# ~210 px, the estimate saw 85 % of 400–700 nm, warned of a cut-off disc and gave confidence 0.73).
 sample-photo: setup
-	$(PY) -m training.simulation.render_photo --spd samples/demo_lamps.csv --out out/sample --size 512 \
+	$(PY) -m training.simulation.render_photo --spd samples/demo_lamps.csv --out out/sample --size 1024 \
 		--noise 0.005 --format jpg --seed 1
 	cp out/sample/CIE_FL11.jpg samples/cd_photo.jpg
 

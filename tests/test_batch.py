@@ -13,14 +13,15 @@ from cd_spectra_addon.core.errors import PhotoError
 from cd_spectra_addon.core.inverse.batch import estimate_photos
 from cd_spectra_addon.core.inverse.estimate import estimate_photo
 from cd_spectra_addon.core.photo import images
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
 
-SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "cd_photo.jpg"
+SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "cd_photo.jpg"  # `make sample-photo`: the default preset
 
 
 def test_the_same_estimates_as_one_by_one_in_order(tmp_path: Path) -> None:
     second = tmp_path / "copy.jpg"
     second.write_bytes(SAMPLE.read_bytes())
-    options = dict(preset="cd-default", model=None, method="prior")
+    options = dict(preset=DEFAULT_PRESET, model=None, method="prior")
     batch = list(estimate_photos([SAMPLE, second, SAMPLE], **options))
     single = [estimate_photo(p, **options) for p in (SAMPLE, second, SAMPLE)]
     assert [b.source for b in batch] == [str(SAMPLE), str(second), str(SAMPLE)]
@@ -32,7 +33,7 @@ def test_the_same_estimates_as_one_by_one_in_order(tmp_path: Path) -> None:
 def test_a_bad_photo_stops_the_batch_where_it_stands(tmp_path: Path) -> None:
     bad = tmp_path / "bad.jpg"
     bad.write_bytes(b"not a photo")
-    results = estimate_photos([SAMPLE, bad, SAMPLE], preset="cd-default", model=None, method="prior")
+    results = estimate_photos([SAMPLE, bad, SAMPLE], preset=DEFAULT_PRESET, model=None, method="prior")
     assert next(results).source == str(SAMPLE)
     with pytest.raises(PhotoError, match="bad.jpg"):
         next(results)
@@ -54,7 +55,7 @@ def test_a_registered_decoder_runs_on_the_calling_thread(tmp_path: Path) -> None
     images.register_decoder(decoder)
     try:
         with pytest.raises(PhotoError):
-            list(estimate_photos([SAMPLE, odd], preset="cd-default", model=None, method="prior"))
+            list(estimate_photos([SAMPLE, odd], preset=DEFAULT_PRESET, model=None, method="prior"))
     finally:
         images.unregister_decoder(decoder)
     assert seen and all(name == threading.current_thread().name for name in seen)
@@ -63,7 +64,7 @@ def test_a_registered_decoder_runs_on_the_calling_thread(tmp_path: Path) -> None
 def test_a_bulk_run_can_skip_the_rendition_figures() -> None:
     """``rendition=False`` (the CLI's --no-rendition) reaches every estimate of a batch: no figures,
     no time spent on them; by default each estimate has them, timed."""
-    options = dict(preset="cd-default", model=None, method="prior")
+    options = dict(preset=DEFAULT_PRESET, model=None, method="prior")
     bare, = estimate_photos([SAMPLE], rendition=False, **options)
     assert bare.rendition is None and "rendition" not in bare.timing_ms and "rendition" not in bare.to_json()
     full, = estimate_photos([SAMPLE], **options)

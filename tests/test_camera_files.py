@@ -164,8 +164,9 @@ def test_dng_of_a_rendered_capture_estimates_like_the_exr(tmp_path):
                     focal_plane_px_per_mm=2 * cam.image_size_px[0] / cam.sensor_width_mm)
     photo.write_photo(tmp_path / "same.exr", np.minimum(photo.add_noise(image, 0.005, np.random.default_rng(1)), 1.0),
                       "exr")
-    raw = estimate_photo(dng, model=None, method="physics")
-    exr = estimate_photo(tmp_path / "same.exr", model=None, method="physics", camera=DEFAULT_CAMERA)
+    preset = scene.preset.name  # the photos' own; the product's default is another set-up
+    raw = estimate_photo(dng, preset=preset, model=None, method="physics")
+    exr = estimate_photo(tmp_path / "same.exr", preset=preset, model=None, method="physics", camera=DEFAULT_CAMERA)
     assert raw.camera == DEFAULT_CAMERA and raw.extra["focal_px_source"] == "exif"
     assert raw.disc.radius_px == pytest.approx(2 * exr.disc.radius_px, rel=0.02)  # in sensor photosites
     assert compare_spds(raw.spd, spd)["mae_400_700"] < compare_spds(exr.spd, spd)["mae_400_700"] + 0.01

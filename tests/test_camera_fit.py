@@ -79,7 +79,8 @@ def test_generic_profile_plus_calibration_is_as_good_as_the_cameras_own_profile(
     scene = capture[0]
     camera = load_camera(HELD_CAMERA)
     cal = load_calibration(calibrate_photo(_shoot(tmp_path / "cal.png", capture, CIE_A, camera, 2), CIE_A, "phone",
-                                           directory=tmp_path / "cal", reference_name="incandescent"))
+                                           scene.preset.name, directory=tmp_path / "cal",
+                                           reference_name="incandescent"))
     assert cal.camera == GENERIC_CAMERA and cal.sensitivities is not None and cal.pipeline is None
     spds, _ = sample_spds(4, np.random.default_rng(31))
     mae = {"own": [], "generic": [], "calibrated": []}

@@ -191,7 +191,8 @@ def test_calibration_shot_undoes_an_in_camera_jpeg(tmp_path, capture):
     pipe = pipeline_for(CAMERA, TYPICAL)
     ref = known_lamp_spd("incandescent")
     cal_path = _shoot(tmp_path, capture, ref, "cal", pipe, seed=5)
-    saved = calibrate_photo(cal_path, ref, "camera-jpeg", directory=tmp_path / "cal", reference_name="incandescent")
+    saved = calibrate_photo(cal_path, ref, "camera-jpeg", scene.preset.name, directory=tmp_path / "cal",
+                            reference_name="incandescent")
     cal = load_calibration(saved)
     assert cal.pipeline is not None and "WhiteBalance" in cal.metadata["processed"]
     image = load_photo(cal_path)

@@ -16,6 +16,8 @@ from typing import Any
 
 import pytest
 
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
+
 ROOT = Path(__file__).resolve().parents[1]
 
 FAKE_ESTIMATOR = textwrap.dedent('''
@@ -24,8 +26,9 @@ FAKE_ESTIMATOR = textwrap.dedent('''
     from cd_spectra_addon.core.errors import PhotoError
     from cd_spectra_addon.core.inverse.result import DiscFit, Estimate
     from cd_spectra_addon.core.rendition.result import rendition as rendition_json
+    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
 
-    def estimate_photo(path, *, preset="cd-default", camera="Canon_EOS_5D_Mark_III", calibration=None,
+    def estimate_photo(path, *, preset=DEFAULT_PRESET, camera="Canon_EOS_5D_Mark_III", calibration=None,
                        working_space="Linear Rec.709", progress=None, rendition=True):
         if "bad" in path:
             raise PhotoError("the photo is completely black\\n(check the lens cap)")
@@ -45,7 +48,7 @@ FAKE_ESTIMATOR = textwrap.dedent('''
     module.estimate_photo = estimate_photo
     sys.modules[module.__name__] = module
 
-    def estimate_photos(paths, *, preset="cd-default", **options):  # the CLI's many-photo path, in order
+    def estimate_photos(paths, *, preset=DEFAULT_PRESET, **options):  # the CLI's many-photo path, in order
         for path in paths:
             yield estimate_photo(path, preset=preset, **options)
 
@@ -109,7 +112,7 @@ def test_one_json_object_per_photo_in_order(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     objects = json.loads(out.read_text())
     assert [o["source"] for o in objects] == photos
-    assert all(o["camera"] == "Nikon_D5100" and o["preset"] == "cd-default" for o in objects)
+    assert all(o["camera"] == "Nikon_D5100" and o["preset"] == DEFAULT_PRESET for o in objects)
     assert all(len(o["spd"]) == 81 for o in objects)
     assert "BPY_NOT_LOADED" in proc.stderr
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temp files left

@@ -23,8 +23,9 @@ FAKE_JOINT = textwrap.dedent('''
     import numpy as np
     from cd_spectra_addon.core.errors import PhotoError
     from cd_spectra_addon.core.inverse.result import DiscFit, Estimate
+    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
 
-    def estimate_joint(paths, *, preset="cd-default", camera="auto", calibration=None, progress=None, **_):
+    def estimate_joint(paths, *, preset=DEFAULT_PRESET, camera="auto", calibration=None, progress=None, **_):
         for k, path in enumerate(paths):
             if progress is not None:
                 progress(k / len(paths), f"photo {k + 1} of {len(paths)}: {path.rsplit('/', 1)[-1]}")

@@ -22,11 +22,12 @@ from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
 SHIPPED = MODEL_DIR / "cd_spectra.onnx"  # tracked in git: the tests use it, never skip without it
+PRESET = "cd-default"  # the photos here are rendered in it and read as it (not the product's default)
 
 
 @pytest.fixture(scope="module")
 def capture():
-    scene = Scene(load_preset("cd-default").with_image_size(256))
+    scene = Scene(load_preset(PRESET).with_image_size(256))
     return scene, render_cube(scene, supersample=3), photo.track_mask(scene)
 
 
@@ -49,7 +50,7 @@ def _warm_led():
 
 @pytest.mark.parametrize("spd", [known_lamp_spd("incandescent"), _warm_led()], ids=["incandescent", "led"])
 def test_estimate_recovers_known_spectra(tmp_path, capture, spd):
-    result = estimate_photo(_write(tmp_path, capture, spd))
+    result = estimate_photo(_write(tmp_path, capture, spd), preset=PRESET)
     metrics = compare_spds(result.spd, spd)
     assert metrics["mae_400_700"] < 0.05 and metrics["delta_uv_prime"] < 0.005
     assert result.spd.shape == (81,) and result.spd.max() == 1.0 and result.spd.min() >= 0
@@ -65,14 +66,14 @@ def test_estimate_recovers_known_spectra(tmp_path, capture, spd):
 def test_exposure_does_not_change_the_spd(tmp_path, capture):
     """Unsaturated exposure ×k only scales the photo: the normalised SPD moves < 1 %."""
     spd = _warm_led()
-    a = estimate_photo(_write(tmp_path, capture, spd, "a", fmt="exr", exposure=0.4, noise=0.0))
-    b = estimate_photo(_write(tmp_path, capture, spd, "b", fmt="exr", exposure=0.9, noise=0.0))
+    a = estimate_photo(_write(tmp_path, capture, spd, "a", fmt="exr", exposure=0.4, noise=0.0), preset=PRESET)
+    b = estimate_photo(_write(tmp_path, capture, spd, "b", fmt="exr", exposure=0.9, noise=0.0), preset=PRESET)
     assert np.max(np.abs(a.spd - b.spd)) < 0.01
 
 
 def test_physics_only_without_a_model(tmp_path, capture):
     spd = known_lamp_spd("incandescent")
-    result = estimate_photo(_write(tmp_path, capture, spd, fmt="exr"), model=None)
+    result = estimate_photo(_write(tmp_path, capture, spd, fmt="exr"), preset=PRESET, model=None)
     assert compare_spds(result.spd, spd)["mae_400_700"] < 0.05
     assert result.spd.max() == 1.0
 
@@ -111,23 +112,23 @@ def test_calibration_repairs_a_camera_that_differs_from_its_profile(tmp_path, ca
     ref = known_lamp_spd("incandescent")
     cal_photo = _write(tmp_path, capture, ref, "cal", fmt="exr", noise=0.0, camera=off)
     # EXR carries no EXIF camera: name it, for the calibration and the estimates alike.
-    saved = calibrate_photo(cal_photo, ref, "unit-test", camera=DEFAULT_CAMERA, directory=tmp_path / "cal",
-                            reference_name="incandescent")
+    saved = calibrate_photo(cal_photo, ref, "unit-test", preset=PRESET, camera=DEFAULT_CAMERA,
+                            directory=tmp_path / "cal", reference_name="incandescent")
     assert list_calibrations(tmp_path / "cal") == ["unit-test"]
     loaded = load_calibration(saved)
     target = _warm_led()
     test_photo = _write(tmp_path, capture, target, "t", fmt="exr", noise=0.0, camera=off)
-    plain = estimate_photo(test_photo, model=None, camera=DEFAULT_CAMERA)
-    fixed = estimate_photo(test_photo, model=None, calibration=loaded, camera=DEFAULT_CAMERA)
+    plain = estimate_photo(test_photo, preset=PRESET, model=None, camera=DEFAULT_CAMERA)
+    fixed = estimate_photo(test_photo, preset=PRESET, model=None, calibration=loaded, camera=DEFAULT_CAMERA)
     assert compare_spds(fixed.spd, target)["delta_uv_prime"] < 0.6 * compare_spds(plain.spd, target)["delta_uv_prime"]
 
 
 def test_unknown_calibration_and_camera_are_specific_errors(tmp_path, capture):
     path = _write(tmp_path, capture, known_lamp_spd("incandescent"))
     with pytest.raises(CDSpectraError, match="calibration"):
-        estimate_photo(path, model=None, calibration=str(tmp_path / "missing.json"))
+        estimate_photo(path, preset=PRESET, model=None, calibration=str(tmp_path / "missing.json"))
     with pytest.raises(CDSpectraError, match="unknown camera"):
-        estimate_photo(path, model=None, camera="Leica_M11")
+        estimate_photo(path, preset=PRESET, model=None, camera="Leica_M11")
 
 
 def test_calibrated_photos_use_their_own_fusion_strength():
@@ -162,21 +163,22 @@ def test_band_weight_picks_network_or_physics_per_wavelength(tmp_path, capture):
     a weight that is 0 below 500 nm takes that part from physics + prior and keeps the rest from the
     network, peak 1, no negative values."""
     path = _write(tmp_path, capture, _warm_led())
-    prior_only = estimate_photo(path, model=SHIPPED, method="prior")
+    prior_only = estimate_photo(path, preset=PRESET, model=SHIPPED, method="prior")
     models = {}
     for name, w in (("ones", np.ones(81)), ("zeros", np.zeros(81)), ("half", (WAVELENGTHS_NM >= 500) * 1.0)):
         (tmp_path / name).mkdir()
         models[name] = _model_copy(tmp_path / name, {"band_weight": w.tolist(), "calibrated_band_weight": w.tolist()})
-    ones = estimate_photo(path, model=models["ones"])
+    ones = estimate_photo(path, preset=PRESET, model=models["ones"])
     (tmp_path / "none").mkdir()
     meta = json.loads(SHIPPED.with_suffix(".json").read_text())
     plain_model = _model_copy(tmp_path / "none", {})
     fusion = {k: v for k, v in meta.get("fusion", {}).items() if "band_weight" not in k}
     plain_model.with_suffix(".json").write_text(json.dumps({**meta, "fusion": fusion}))
-    assert np.array_equal(ones.spd, estimate_photo(path, model=plain_model).spd)  # as before band weights
-    zeros = estimate_photo(path, model=models["zeros"])
+    # as before band weights
+    assert np.array_equal(ones.spd, estimate_photo(path, preset=PRESET, model=plain_model).spd)
+    zeros = estimate_photo(path, preset=PRESET, model=models["zeros"])
     assert np.allclose(zeros.spd, prior_only.spd, atol=1e-12)
-    half = estimate_photo(path, model=models["half"])
+    half = estimate_photo(path, preset=PRESET, model=models["half"])
     assert half.spd.max() == 1.0 and half.spd.min() >= 0 and np.all(np.isfinite(half.spd))
     lo, hi = WAVELENGTHS_NM < 500, WAVELENGTHS_NM >= 500
     # Each part has the shape of its source (up to the common scale the blend sets).

@@ -635,7 +635,8 @@ def test_impossible_measurements_are_refused_and_change_nothing(addon: Installed
     setattr(settings, field, value)
     with pytest.raises(RuntimeError, match=re.escape(message)):
         bpy.ops.cd_spectra.save_measured_setup()
-    assert not (tmp_path / "presets").exists() and settings.preset == "cd-default"
+    default = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
+    assert not (tmp_path / "presets").exists() and settings.preset == default  # still the default
 
 
 def test_user_presets_live_beside_the_calibrations_in_the_extensions_user_folder(addon: Installed,
@@ -656,8 +657,9 @@ def _fake_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, fail: 
     result_mod = addon.sub("cd_spectra_addon.core.inverse.result")
     errors = addon.sub("cd_spectra_addon.core.errors")
     calls: list = []
+    default_preset = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
 
-    def estimate_photo(path: str, *, preset: str = "cd-default", camera: str = "", calibration=None,
+    def estimate_photo(path: str, *, preset: str = default_preset, camera: str = "", calibration=None,
                        working_space: str = "Linear Rec.709", progress=None):
         if progress is not None:
             progress(0.5, "fitting the spectrum")
@@ -684,7 +686,10 @@ def test_estimate_stores_the_result_and_its_curve(addon: Installed, monkeypatch:
     settings = bpy.context.scene.cd_spectra
     settings.camera = "Nikon_D5100"
     assert bpy.ops.cd_spectra.estimate_spd(filepath=str(photo)) == {"FINISHED"}
-    assert calls == [(str(photo), "cd-default", "Nikon_D5100", None, "Linear Rec.709")]
+    capture = addon.sub("cd_spectra_addon.core.scene.capture")
+    default = capture.DEFAULT_PRESET
+    assert default in capture.SETUP_PRESETS  # the panel starts on a set-up a person can build
+    assert calls == [(str(photo), default, "Nikon_D5100", None, "Linear Rec.709")]
     state = addon.sub("cd_spectra_addon.blender.state")
     data = state.last_estimate(settings)
     assert data["model_version"] == "fake-1" and data["spd"] == pytest.approx(blackbody_spd(3300.0))
@@ -768,9 +773,10 @@ def _fake_joint_estimator(addon: Installed, monkeypatch: pytest.MonkeyPatch, *, 
     result_mod = addon.sub("cd_spectra_addon.core.inverse.result")
     errors = addon.sub("cd_spectra_addon.core.errors")
     calls: list = []
+    default_preset = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
 
-    def estimate_joint(paths, *, preset="cd-default", camera="", calibration=None, working_space="Linear Rec.709",
-                       progress=None):
+    def estimate_joint(paths, *, preset=default_preset, camera="", calibration=None,
+                       working_space="Linear Rec.709", progress=None):
         if progress is not None:
             progress(0.5, "photo 1 of 2: a.jpg")
         calls.append((list(paths), preset, camera, calibration, working_space))
@@ -819,8 +825,9 @@ def test_joint_estimate_stores_one_result_from_every_photo(addon: Installed, mon
         settings.joint_photos.add().path = str(tmp_path / name)
     settings.camera = "Nikon_D5100"
     assert bpy.ops.cd_spectra.estimate_joint() == {"FINISHED"}
+    default = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
     assert calls == [([str(tmp_path / "a.jpg"), *(f"{gif}#{i}" for i in range(3)), str(tmp_path / "b.jpg")],
-                      "cd-default", "Nikon_D5100", None, "Linear Rec.709")]
+                      default, "Nikon_D5100", None, "Linear Rec.709")]
     data = addon.sub("cd_spectra_addon.blender.state").last_estimate(settings)
     assert data["model_version"] == "fake-joint" and data["joint"]["used"] == 5
     assert settings.node_group is not None and bpy.ops.cd_spectra.create_light() == {"FINISHED"}
@@ -904,7 +911,8 @@ def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: py
     assert bpy.ops.cd_spectra.calibrate(filepath=str(photo), lamp="incandescent", profile_name="my D5100") \
         == {"FINISHED"}
     (path, reference, name, preset, camera), = calls
-    assert (path, name, preset, camera) == (str(photo), "my D5100", "cd-default", "Canon_EOS_5D_Mark_III")
+    default = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
+    assert (path, name, preset, camera) == (str(photo), "my D5100", default, "Canon_EOS_5D_Mark_III")
     assert reference == pytest.approx(addon.sub("cd_spectra_addon.core.spectra.illuminants").known_lamp_spd("incandescent"))
     settings = bpy.context.scene.cd_spectra
     assert settings.calibration == "my_D5100"  # as the core named the file

@@ -190,7 +190,12 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
 
 
 def _blender_case(case: Case, run: Run, installed: Installed, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Point the installed add-on's estimator at what the case needs."""
+    """Point the installed add-on's estimator at what the case needs, and its Preset at the
+    geometry the photos are rendered in (the panel's default is a buildable set-up, not it; the
+    ``addon`` fixture's fresh startup file puts the default back afterwards)."""
+    import bpy
+
+    bpy.context.scene.cd_spectra.preset = hostile.REFERENCE_PRESET
     model = installed.sub("cd_spectra_addon.core.spectrum.model")
     monkeypatch.setattr(model, "_CACHE", {})
     if run.model_dir is not None:

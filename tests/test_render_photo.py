@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, load_preset
 from training.simulation import render_photo
 
 CSV = "wavelength_nm,warm,cool\n" + "\n".join(
@@ -44,7 +45,8 @@ def test_jpeg_carries_the_focal_length_in_exif(tmp_path, spd_csv, capsys):
                  "--cache-dir", tmp_path / "c"], capsys)[0] == 0
     with Image.open(out / "warm.jpg") as im:
         exif = im.getexif().get_ifd(0x8769)
-    assert float(exif[0x920A]) == pytest.approx(58.0)
+    # render_photo's default preset (the estimator's): its lens's focal length in EXIF FocalLength
+    assert float(exif[0x920A]) == pytest.approx(load_preset(DEFAULT_PRESET).camera.focal_length_mm)
 
 
 def test_print_geometry(capsys):

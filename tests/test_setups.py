@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.scene.capture import Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, REFERENCE_PRESET, Scene, load_preset, preset_from_dict
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.planning.setups import Box, analyse, load_setup, setup_from_dict, setup_names
 
@@ -35,6 +35,17 @@ def _grating_check(scene: Scene, direction: np.ndarray, s_mm: float) -> tuple[fl
 def test_the_shipped_set_ups_are_listed():
     assert set(SHIPPED) <= set(setup_names())
     assert "cd-default" not in setup_names()
+
+
+def test_the_default_preset_can_be_built_and_the_reference_is_the_tables_coaxial_one():
+    """What a photo is read as unless the user picks a preset is a set-up a person can build
+    (it has build steps and covers 400–700 nm); the tables' reference geometry stays cd-default."""
+    assert DEFAULT_PRESET in SHIPPED
+    report = analyse(load_setup(DEFAULT_PRESET))
+    assert report.covers_visible and load_setup(DEFAULT_PRESET).steps
+    assert REFERENCE_PRESET == "cd-default" and REFERENCE_PRESET not in setup_names()
+    reference = load_preset(REFERENCE_PRESET)
+    assert reference.light.position_mm == (0.0, 0.0, reference.camera.distance_mm)  # lamp on the lens axis
 
 
 @pytest.mark.parametrize("name", SHIPPED)

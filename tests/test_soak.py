@@ -98,9 +98,10 @@ def test_enable_disable_cycles_leave_nothing_behind(blender_addon: Installed) ->
 def test_estimate_and_create_light_cycles_add_only_what_they_make(blender_addon: Installed, tmp_path: Path) -> None:
     import bpy
 
-    from training.reliability.hostile import make_base
+    from training.reliability.hostile import REFERENCE_PRESET, make_base
 
     base = make_base(128)
+    bpy.context.scene.cd_spectra.preset = REFERENCE_PRESET  # the photos' geometry; a fresh file follows
     photos = []
     for k, gain in enumerate((1.0, 0.6)):  # two photos, two SPDs: at most two node groups
         path = tmp_path / f"cd{k}.png"

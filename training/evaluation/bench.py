@@ -29,7 +29,7 @@ import numpy as np
 from PIL import Image
 
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, SETUP_PRESETS, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, SETUP_PRESETS, Scene, load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.inverse.batch import estimate_photos
 from cd_spectra_addon.core.inverse.estimate import estimate_image, estimate_photo
@@ -73,7 +73,7 @@ def _points(quick: bool) -> list[dict[str, Any]]:
 
 def error_vs_time(quick: bool) -> list[dict[str, Any]]:
     size = 256 if quick else 768
-    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
+    scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
     cube, _ = basis_cube(scene, "numpy", log=print)
     meter = photo.track_mask(scene)
     lamps = lspdd_lamps()[:: 40 if quick else 5]
@@ -90,13 +90,13 @@ def error_vs_time(quick: bool) -> list[dict[str, Any]]:
         for point in _points(quick):
             model = load_model(point["model"]) if point["model"] else load_model()
             errs, errs_all, duv, times = [], [], [], []
-            estimate_photo(paths[0], model=model, method=point["method"])  # warm caches
+            estimate_photo(paths[0], preset=REFERENCE_PRESET, model=model, method=point["method"])  # warm caches
             for path, lamp in zip(paths, lamps):
                 t0 = time.perf_counter()
                 # the product's loader, or one reading the photo smaller (the operating points below it)
                 image = load_for_estimate(path, scene.preset) if point["max_side"] == PREVIEW_SIDE else \
                     load_photo(path, max_side=point["max_side"])
-                est = estimate_image(image, model=model, method=point["method"])
+                est = estimate_image(image, preset=REFERENCE_PRESET, model=model, method=point["method"])
                 times.append(time.perf_counter() - t0)
                 m = compare_spds(est.spd, lamp.spd)
                 errs.append(m["mae_400_700"])
@@ -148,13 +148,13 @@ def speed(quick: bool) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         for key, noisy in (("photo", True), ("photo_noise_free", False)):
             path = Path(tmp) / f"{key}.jpg"
-            _big_jpeg(path, DEFAULT_PRESET, (w, h), lamp, noisy)
+            _big_jpeg(path, REFERENCE_PRESET, (w, h), lamp, noisy)
             decode, estimate = [], []
-            estimate_photo(path, model=model)
+            estimate_photo(path, preset=REFERENCE_PRESET, model=model)
             for _ in range(repeats):
                 decode.append(_decode_ms(path))
                 t0 = time.perf_counter()
-                est = estimate_photo(path, model=model)
+                est = estimate_photo(path, preset=REFERENCE_PRESET, model=model)
                 estimate.append((time.perf_counter() - t0) * 1e3)
             m = compare_spds(est.spd, lamp.spd)
             out[key] = {"megapixels": w * h / 1e6, "file_mb": path.stat().st_size / 1e6,
@@ -183,14 +183,14 @@ def speed(quick: bool) -> dict[str, Any]:
             _decode_ms(p)
         ten_decode = (time.perf_counter() - t0) * 1e3
         t0 = time.perf_counter()
-        for _ in estimate_photos(paths, preset=DEFAULT_PRESET, model=model):
+        for _ in estimate_photos(paths, preset=REFERENCE_PRESET, model=model):
             pass
         ten_estimate = (time.perf_counter() - t0) * 1e3
         out["ten_photos"] = {"bare_decode_ms": ten_decode, "estimate_ms": ten_estimate,
                              "ratio": ten_estimate / ten_decode}
         # The pose fit of each buildable set-up's nominal photo, at the loader's resolution.
         out["pose_fit"] = {}
-        for name in (DEFAULT_PRESET, *SETUP_PRESETS):
+        for name in (REFERENCE_PRESET, *SETUP_PRESETS):
             path = Path(tmp) / f"{name}.jpg"
             _big_jpeg(path, name, (w, h), lamp)
             est = estimate_photo(path, preset=name, model=model)

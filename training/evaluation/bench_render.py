@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
 from training.simulation import cycles_scene, photo
@@ -50,7 +50,7 @@ def main() -> None:
     cube_sizes = (96,) if args.quick else (256, 512)
     spps = (1, 4, 16) if args.quick else (1, 2, 4, 8, 16, 32, 64, 128)
     converged_spp = 64 if args.quick else 1024
-    preset = load_preset(DEFAULT_PRESET)
+    preset = load_preset(REFERENCE_PRESET)
     shipped_spp = preset.samples
     probe = np.array([400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0, 750.0, 780.0])  # 3 renders
 
@@ -99,7 +99,7 @@ def main() -> None:
     lines = [
         "# Forward renderer benchmark (`make bench-render`)",
         "",
-        f"Machine: {result['machine']['cpus']} CPUs, {result['machine']['platform']}. Preset `cd-default`,",
+        f"Machine: {result['machine']['cpus']} CPUs, {result['machine']['platform']}. Preset `{result['preset']}`,",
         f"Cycles on the CPU with the OSL shader, {shipped_spp} samples per pixel (shipped), three bands per render.",
         "",
         "## Basis cube vs one render per training sample",

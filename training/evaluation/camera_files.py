@@ -44,7 +44,7 @@ from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
 from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.photo.images import LinearImage, load_photo
@@ -141,7 +141,7 @@ ROWS: list[tuple[str, Row]] = [
 class Shooter:
     def __init__(self, tmp: Path, size: int):
         self.tmp = tmp
-        self.scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
+        self.scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
         t0 = time.perf_counter()
         self.cube = render_cube(self.scene, supersample=3)
         self.render_seconds = time.perf_counter() - t0

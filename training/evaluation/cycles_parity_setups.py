@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Pose, Scene, load_preset
 from cd_spectra_addon.core.planning.setups import setup_names
 
 from training.simulation import cycles_scene
@@ -42,9 +42,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, help="also write the table here (markdown)")
     args = parser.parse_args(argv)
     cases = [(name, lambda n, name=name: Scene(load_preset(name).with_image_size(n))) for name in setup_names()]
-    cases.append(("cd-default, lamp 30 mm beside the lens",
-                  lambda n: Scene(load_preset(DEFAULT_PRESET).with_image_size(n), Pose(light_offset_mm=(30.0, 0.0)))))
-    cases.append(("cd-default (coaxial rings)", lambda n: Scene(load_preset(DEFAULT_PRESET).with_image_size(n))))
+    cases.append((f"{REFERENCE_PRESET}, lamp 30 mm beside the lens",
+                  lambda n: Scene(load_preset(REFERENCE_PRESET).with_image_size(n), Pose(light_offset_mm=(30.0, 0.0)))))
+    cases.append((f"{REFERENCE_PRESET} (coaxial rings)",
+                  lambda n: Scene(load_preset(REFERENCE_PRESET).with_image_size(n))))
     lines = ["# Cycles / numpy twin image-mean ratio per band (simulator only)", "",
              f"`python -m training.evaluation.cycles_parity_setups` — Cycles {SPP} spp, numpy 8×8 per pixel", "",
              "| scene | " + " | ".join(f"{n} px: {' / '.join(f'{b:.0f}' for b in BANDS_NM)} nm" for n in SIZES) + " |",

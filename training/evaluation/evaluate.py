@@ -38,7 +38,7 @@ from cd_spectra_addon.core.scene.relative_pose import relative_pose, scene_from_
 from cd_spectra_addon.core.calibration.calibration import Calibration, new_metadata
 from cd_spectra_addon.core.inverse.calibration_shot import gains_from_image
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_names, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Disc, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Disc, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
@@ -276,12 +276,12 @@ def rendering_check(lamps: list[Lamp], estimates: list[np.ndarray]) -> dict[str,
     from training.simulation.render_numpy import render_cube
 
     materials = {
-        "CD": Scene(load_preset(DEFAULT_PRESET).with_image_size(128)),
-        "DVD": Scene(replace(load_preset(DEFAULT_PRESET), name="dvd",
+        "CD": Scene(load_preset(REFERENCE_PRESET).with_image_size(128)),
+        "DVD": Scene(replace(load_preset(REFERENCE_PRESET), name="dvd",
                              disc=replace(Disc(), pitch_um=0.74, groove_height_um=0.06),
-                             camera=replace(load_preset(DEFAULT_PRESET).camera, distance_mm=80.0, focal_length_mm=20.0,
+                             camera=replace(load_preset(REFERENCE_PRESET).camera, distance_mm=80.0, focal_length_mm=20.0,
                                             image_size_px=(128, 128)),
-                             light=replace(load_preset(DEFAULT_PRESET).light, position_mm=(0.0, 0.0, 80.0)))),
+                             light=replace(load_preset(REFERENCE_PRESET).light, position_mm=(0.0, 0.0, 80.0)))),
     }
     to_rgb = colour_core.xyz_to_working_rgb(np.eye(3), colour_core.LINEAR_REC709)  # rows: X, Y, Z → RGB
     xyz_cmf = np.stack([colour_core.spd_to_xyz(np.eye(81)[i]) for i in range(81)])  # (81, 3)

@@ -43,7 +43,7 @@ from cd_spectra_addon.core.spectra import colour as colour_core
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.stages import pose_photo
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, SETUP_PRESETS, Pose, Preset, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, SETUP_PRESETS, Pose, Preset, Scene, load_preset
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
@@ -62,7 +62,7 @@ SIZE = 1024  # the loader's working size
 UPSAMPLE = 2  # camera pixels per loaded pixel
 DISC_SPAN_PX = 800  # the disc's longest extent in the centred crop
 AMBIENT_TINT = np.array([1.0, 0.9, 0.75])  # warm room light, as a share of full scale per channel
-SETUPS = (*SETUP_PRESETS, DEFAULT_PRESET)
+SETUPS = (*SETUP_PRESETS, REFERENCE_PRESET)
 RANDOM_SEED = 10
 
 __all__ = ["Case", "cases_for", "crop_preset", "main"]

@@ -38,7 +38,7 @@ from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.rendition.result import DEFAULT_SAMPLES, TOO_WIDE, rendition
 from cd_spectra_addon.core.rendition.uncertainty import CORRELATION_NM, STD_SCALE
-from cd_spectra_addon.core.scene.capture import load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, load_preset
 from cd_spectra_addon.core.spectrum.model import load_model
 
 from training.evaluation.evaluate import RENDITION_FIGURES as FIGURES
@@ -188,7 +188,8 @@ def render_markdown(r: dict[str, Any]) -> str:
     t = r.get("timing") or {}
     lines = [
         "# Colour rendition: do the ranges cover the truth? (`make eval-rendition`)", "",
-        f"Model `{r['model_version']}`; {r['engine']} captures of the nominal `cd-default` set-up, 8-bit JPEG q90, "
+        f"Model `{r['model_version']}`; {r['engine']} captures of the nominal `{REFERENCE_PRESET}` set-up, "
+        "8-bit JPEG q90, "
         "1 % noise, the default camera — the photos of `make eval`'s real-lamp table — estimated by the product. "
         f"Ranges: 5–95 % of {DEFAULT_SAMPLES} SPDs drawn from `spd` ± k · `spd_std`, correlated over a length, both "
         "chosen below, widened to include the estimate's own value and, for Ra, R9 and Rf near 100, up to 100 "

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_photo
@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
              "| preset | refused | MAE 400–700 median (mean) | confidence mean | warned | commonest refusal / warning |",
              "|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
-        for name in [DEFAULT_PRESET, *setup_names()]:
+        for name in [REFERENCE_PRESET, *setup_names()]:
             row = evaluate(name, lamps, Path(tmp))
             mae = (f"{np.median(row['mae']):.3f} ({np.mean(row['mae']):.3f})" if row["mae"] else "—")
             conf = f"{np.mean(row['confidence']):.2f}" if row["confidence"] else "—"

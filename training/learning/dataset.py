@@ -35,8 +35,8 @@ from cd_spectra_addon.core.calibration.camera_fit import camera_prior
 from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
 from cd_spectra_addon.core.spectra.cameras import GENERIC_CAMERA, CameraProfile, camera_names, load_camera
 from cd_spectra_addon.core.scene.capture import (
-    DEFAULT_PRESET, DISTANT_LAMP_PRESET, FAR_LIGHT_PRESET, NEAR_AXIS_PRESET, OBLIQUE_PRESET, PAPER_PRESET, Pose, Preset,
-    Scene, load_preset)
+    DISTANT_LAMP_PRESET, FAR_LIGHT_PRESET, NEAR_AXIS_PRESET, OBLIQUE_PRESET, PAPER_PRESET, REFERENCE_PRESET, Pose,
+    Preset, Scene, load_preset)
 from cd_spectra_addon.core.scene.diffraction import PixelDiffraction, pixel_diffraction
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import solving_camera
@@ -63,7 +63,7 @@ class CubeSpec:
     """One capture geometry of the training set."""
 
     name: str
-    preset: str = DEFAULT_PRESET
+    preset: str = REFERENCE_PRESET  # the `full` and `smoke` sets: the tables' geometry
     camera_offset_mm: tuple[float, float] = (0.0, 0.0)
     light_offset_mm: tuple[float, float] = (0.0, 0.0)
     tilt_deg: tuple[float, float] = (0.0, 0.0)
@@ -200,8 +200,8 @@ _OBLIQUE = [
 ]
 # cd-default, the reference geometry (coaxial: not buildable), and `full`'s lamp beside the lens.
 _REFERENCE = [
-    _buildable("cd-nominal", DEFAULT_PRESET),
-    _buildable("cd-lamp-beside", DEFAULT_PRESET, light_offset_mm=(12.0, 0.0), lobe_sigma=0.002),
+    _buildable("cd-nominal", REFERENCE_PRESET),
+    _buildable("cd-lamp-beside", REFERENCE_PRESET, light_offset_mm=(12.0, 0.0), lobe_sigma=0.002),
 ]
 CUBE_SETS["buildable"] = _NEAR_AXIS + _OBLIQUE + _REFERENCE
 # A few buildable geometries at a tenth of the work: the pipeline's end-to-end check (tests, pilots).

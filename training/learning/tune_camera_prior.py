@@ -26,7 +26,7 @@ from cd_spectra_addon.core.calibration import camera_fit
 from cd_spectra_addon.core.inverse.stages import read_photo
 from cd_spectra_addon.core.calibration.camera_fit import CameraPrior, fit_sensitivities
 from cd_spectra_addon.core.spectra.cameras import load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.pose.result import PoseFit
@@ -50,7 +50,7 @@ def _brand(name: str) -> str:
 
 def shots(names: list[str], size: int, seed: int = 5) -> dict[str, tuple]:
     """Per camera: (readout, response) of a CIE A photo through the product's preprocessing."""
-    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
+    scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
     cube = render_cube(scene, supersample=3)
     meter = photo.track_mask(scene)
     truth = PoseFit.of_scene(scene)

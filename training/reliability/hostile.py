@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from PIL import Image
 
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError, PhotoError
 from cd_spectra_addon.core.spectrum.model import INPUT_SIZE, MODEL_NAME, layout_hash
 from cd_spectra_addon.core.spectra.grid import N_BANDS
@@ -72,7 +72,7 @@ def make_base(size: int = BASE_SIZE) -> Base:
     from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
     from training.simulation.render_numpy import render_cube
 
-    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
+    scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
     cube = render_cube(scene, supersample=2)
     spd = known_lamp_spd("incandescent")
     meter = photo.track_mask(scene)
@@ -104,7 +104,7 @@ class Case:
     model: str | None = None  # a broken model variant stands in for the shipped one
     cli_args: Callable[[Path], list[str]] | None = None  # extra CLI arguments (given the case folder)
     in_process: bool = True  # False: only the CLI can show it (output paths)
-    preset_json: str | None = None  # a preset file with this text is used instead of cd-default
+    preset_json: str | None = None  # a preset file with this text is used instead of REFERENCE_PRESET
     cli_expect: Expect | None = None  # where the CLI may do better than the API (its fallback decoder)
 
     def expected(self, via: str) -> Expect:
@@ -497,8 +497,9 @@ def run_cli(case: Case, folder: Path, photo_path: Path, model_dir: Path | None, 
     extra = case.cli_args(folder) if case.cli_args else []
     if "--json" not in extra:
         extra += ["--json", "-"]  # the results on stdout (the default output is a summary for people)
-    if case.preset_json is not None:
-        extra += ["--preset", str(folder / "preset.json")]
+    # The photos are rendered on the reference geometry: name it, as the in-process run does,
+    # rather than lean on the CLI's default preset (a buildable set-up the photos were not made in).
+    extra += ["--preset", str(folder / "preset.json") if case.preset_json is not None else REFERENCE_PRESET]
     rss_file = folder / ".peak_rss"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "HOSTILE_RSS_OUT": str(rss_file), "PYTHONIOENCODING": "utf-8"}
     env.pop("HOSTILE_MODEL_DIR", None)
@@ -534,7 +535,7 @@ def run_in_process(case: Case, photo_path: Path, model_dir: Path | None) -> Outc
     from cd_spectra_addon.core.inverse.estimate import estimate_photo
     from cd_spectra_addon.core.spectrum.model import MODEL_DIR
 
-    preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else DEFAULT_PRESET
+    preset = str(photo_path.parent / "preset.json") if case.preset_json is not None else REFERENCE_PRESET
     if model_dir is not None:
         model: Any = str(model_dir / f"{MODEL_NAME}.onnx")
     else:

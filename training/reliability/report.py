@@ -144,13 +144,14 @@ def _sweep(rows: list[tuple[str, str, Any, np.ndarray]], header: str) -> list[st
     """Estimate each (lamp, setting, make(folder) -> photo path, true SPD) and tabulate."""
     from cd_spectra_addon.core.spectra.colour import compare_spds
     from cd_spectra_addon.core.inverse.estimate import estimate_photo
+    from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET
 
     lines = [f"| lamp | {header} | MAE 400–700 | Δu′v′ | confidence | warnings |", "|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
         for lamp, setting, make, spd in rows:
             path = make(Path(tmp))
             try:
-                result = estimate_photo(path, model=_model())
+                result = estimate_photo(path, preset=REFERENCE_PRESET, model=_model())  # the sweeps' photos' geometry
             except CDSpectraError as exc:
                 lines.append(f"| {lamp} | {setting} | — | — | — | {type(exc).__name__}: {_short(str(exc), Path(tmp), 90)} |")
                 continue
@@ -166,13 +167,13 @@ def _model() -> Any:
 
 
 def run_sweeps() -> list[str]:
-    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, load_preset
+    from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, load_preset
     from training.simulation import photo
 
     base = hostile.make_base()
     lamps = {"CIE A": base.spd, "warm LED": _warm_led()}
     shots = {name: base.shoot(spd) for name, spd in lamps.items()}
-    cam = load_preset(DEFAULT_PRESET).camera
+    cam = load_preset(REFERENCE_PRESET).camera
     px_per_mm = cam.focal_length_mm / cam.sensor_width_mm * base.linear.shape[1] / cam.distance_mm
 
     def png(image: np.ndarray, name: str, exif: bytes | None = base.exif) -> Any:

@@ -67,13 +67,13 @@ def rss_mb() -> float:
 def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
     """(path, should succeed) for the soak's cycle of inputs."""
     from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
-    from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Scene, load_preset
+    from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
     from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
     from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
     from training.simulation import photo
     from training.simulation.render_numpy import render_cube
 
-    scene = Scene(load_preset(DEFAULT_PRESET).with_image_size(size))
+    scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
     cube = render_cube(scene, supersample=2)
     cam = load_camera(DEFAULT_CAMERA)
     meter = photo.track_mask(scene)
@@ -105,6 +105,7 @@ def write_photos(folder: Path, size: int = 128) -> list[tuple[Path, bool]]:
 def soak(n: int, warmup: int = 50, size: int = 128, progress: bool = False) -> dict[str, Any]:
     """Run ``n`` estimates (after ``warmup`` more) and report memory and time."""
     from cd_spectra_addon.core.inverse.estimate import estimate_photo
+    from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET
 
     shipped = (MODEL_DIR / f"{MODEL_NAME}.onnx").is_file()
     model: Any = "shipped" if shipped else None
@@ -121,7 +122,7 @@ def soak(n: int, warmup: int = 50, size: int = 128, progress: bool = False) -> d
             path, should_succeed = inputs[i % len(inputs)]
             t0 = time.perf_counter()
             try:
-                result = estimate_photo(path, model=model)
+                result = estimate_photo(path, model=model, preset=REFERENCE_PRESET)  # the photos' geometry
                 if not (np.all(np.isfinite(result.spd)) and result.spd.max() == 1.0):
                     unexpected.append(f"{path.name}: SPD not finite / not peak 1")
                 outcomes["results"] += 1

@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from cd_spectra_addon.core.scene import grating
-from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET, Pose, Scene, load_preset
+from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Pose, Scene, load_preset
 
 __all__ = ["EDGE_BANDS", "EXTREMES", "scene", "psnr", "twin_at_pixel_centres", "cycles_at_pixel_centres",
            "compare_extreme"]
@@ -25,7 +25,7 @@ EDGE_BANDS = np.array([380.0, 385.0, 555.0, 600.0, 775.0, 780.0])
 def scene(size: int = 48, pitch: float = 1.6, dist: float = 210.0, focal: float = 58.0,
           light: tuple[float, float, float] | None = None, pose: Pose = Pose(), sigma: float = 0.003,
           intensity: float = 1.0) -> Scene:
-    base = load_preset(DEFAULT_PRESET).with_image_size(size)
+    base = load_preset(REFERENCE_PRESET).with_image_size(size)
     preset = replace(base, disc=replace(base.disc, pitch_um=pitch),
                      camera=replace(base.camera, distance_mm=dist, focal_length_mm=focal),
                      light=replace(base.light, position_mm=light or (0.0, 0.0, dist), lobe_sigma=sigma,

@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from ..errors import CDSpectraError
-from ..scene.capture import DEFAULT_PRESET, Preset, load_preset, preset_from_dict
+from ..scene.capture import DEFAULT_PRESET, REFERENCE_PRESET, Preset, load_preset, preset_from_dict
 from ..scene.relative_pose import near_axis
 from ..validation import check_number, check_numbers
 from .setups import NEAR_AXIS, OBLIQUE, SetUp, angular_sigma, setup_from_dict
@@ -156,7 +156,7 @@ def check_measurements(m: Measurements) -> Measurements:
     gap = math.dist(position_mm(lamp_d, lamp_a, lamp_z), position_mm(cam_d, cam_a, cam_z))
     if gap < MIN_SEPARATION_MM:
         raise MeasurementError(f"the lamp and the camera are {gap:.2g} mm apart: they cannot be in the same place "
-                               f"(a lamp on the lens axis needs a beam splitter; that is the preset {DEFAULT_PRESET})")
+                               f"(a lamp on the lens axis needs a beam splitter; that is the preset {REFERENCE_PRESET})")
     return checked
 
 
