@@ -66,7 +66,7 @@ class TailSettings:
         return cls(float(meta["thermal_chi2"]), float(meta["other_chi2"]))
 
 
-# Chosen on synthetic spectra (bench/tails.md); the model's metadata carries the shipped choice.
+# The shipped model's choice on synthetic spectra (bench/tails_tuning.md; its metadata carries it).
 DEFAULT_SETTINGS = TailSettings(thermal_chi2=3.0, other_chi2=6.0)
 
 
