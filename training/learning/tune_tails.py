@@ -151,6 +151,12 @@ def report(result: dict[str, Any]) -> str:
     return "\n".join(lines + [""])
 
 
+def tails_metadata(result: dict[str, Any]) -> dict[str, Any]:
+    b = result["best"]
+    return {"thermal_chi2": b["thermal_chi2"], "other_chi2": b["other_chi2"],
+            "chosen_on": f"{result['n']} synthetic photos of the prior's physical families (bench/tails_tuning.md)"}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=REPO / "models" / "cd_spectra.onnx")
@@ -166,10 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.write:
         side = args.model.with_suffix(".json")
         meta = json.loads(side.read_text(encoding="utf-8"))
-        b = result["best"]
-        meta["tails"] = {"thermal_chi2": b["thermal_chi2"], "other_chi2": b["other_chi2"],
-                         "chosen_on": f"{result['n']} synthetic photos of the prior's physical families "
-                                      "(bench/tails_tuning.md)"}
+        meta["tails"] = tails_metadata(result)
         side.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
     return 0
 
