@@ -109,6 +109,9 @@ def test_thermal_weight_is_linear_between_the_thresholds():
     fit = lambda chi: PlanckFit(3000.0, 1.0, chi, np.ones(81))  # noqa: E731
     assert [thermal_weight(fit(c), s) for c in (0.0, 2.0, 3.0, 4.0, 9.0)] == [1.0, 1.0, 0.5, 0.0, 0.0]
     assert thermal_weight(None, s) == 0.0
+    capped = TailSettings(2.0, 4.0, 4000.0)
+    assert thermal_weight(PlanckFit(3900.0, 1.0, 0.0, np.ones(81)), capped) == 1.0
+    assert thermal_weight(PlanckFit(6500.0, 1.0, 0.0, np.ones(81)), capped) == 0.0
 
 
 def test_the_tails_join_the_estimate_without_a_step(capture, model):
@@ -143,7 +146,7 @@ def test_an_uncertain_kind_widens_the_tails_by_their_disagreement():
 
 def test_default_settings_match_the_shipped_model(model):
     s = tail_settings(model)
-    assert (s.thermal_chi2, s.other_chi2) == (DEFAULT_SETTINGS.thermal_chi2, DEFAULT_SETTINGS.other_chi2)
+    assert s == DEFAULT_SETTINGS
 
 
 # --- no network islands ---------------------------------------------------------------------------
@@ -208,7 +211,7 @@ def test_the_blend_never_makes_the_colour_worse_than_either_part(tmp_path, model
 
 @pytest.mark.parametrize("bad", [{"thermal_chi2": 3.0}, {"thermal_chi2": 5.0, "other_chi2": 2.0},
                                  {"thermal_chi2": -1.0, "other_chi2": 2.0}, {"thermal_chi2": "x", "other_chi2": 2.0},
-                                 [3.0, 6.0]])
+                                 [3.0, 6.0], {"thermal_chi2": 1.0, "other_chi2": 2.0, "max_temperature_k": -5.0}])
 def test_tail_settings_that_make_no_sense_are_refused(tmp_path, bad):
     import json
     import shutil

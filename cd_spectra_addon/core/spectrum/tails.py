@@ -54,20 +54,24 @@ __all__ = ["TailSettings", "DEFAULT_SETTINGS", "PlanckFit", "planck_fit", "blind
 class TailSettings:
     """χ² per feature row of the best Planck fit at which the tails are fully Planck
     (``thermal_chi2``) and at which they are fully the estimate's (``other_chi2``), linear
-    between."""
+    between; and the hottest fitted temperature that counts as thermal at all: a filament lamp
+    is below ~3500 K, while a smooth daylight-like spectrum can pass for a hotter Planck curve
+    where the camera sees and leaves it in the tails."""
 
     thermal_chi2: float
     other_chi2: float
+    max_temperature_k: float = float("inf")
 
     @classmethod
     def from_metadata(cls, meta: Mapping[str, Any] | None) -> "TailSettings | None":
         if not meta:
             return None
-        return cls(float(meta["thermal_chi2"]), float(meta["other_chi2"]))
+        return cls(float(meta["thermal_chi2"]), float(meta["other_chi2"]),
+                   float(meta.get("max_temperature_k") or float("inf")))
 
 
 # The shipped model's choice on synthetic spectra (bench/tails_tuning.md; its metadata carries it).
-DEFAULT_SETTINGS = TailSettings(thermal_chi2=3.0, other_chi2=6.0)
+DEFAULT_SETTINGS = TailSettings(thermal_chi2=0.5, other_chi2=2.5)
 
 
 @dataclass(frozen=True)
@@ -131,8 +135,10 @@ def planck_fit(rows: Rows) -> PlanckFit | None:
 
 def thermal_weight(fit: PlanckFit | None, settings: TailSettings) -> float:
     """How far the tails are the Planck curve's: 1 at χ²/row ≤ ``thermal_chi2``, 0 at ≥
-    ``other_chi2``, linear between; 0 without a fit."""
+    ``other_chi2``, linear between; 0 without a fit or above ``max_temperature_k``."""
     if fit is None or not fit.scale > 0 or not np.isfinite(fit.chi2_per_row):
+        return 0.0
+    if fit.temperature_k > settings.max_temperature_k:
         return 0.0
     lo, hi = settings.thermal_chi2, settings.other_chi2
     if fit.chi2_per_row <= lo:
