@@ -172,11 +172,11 @@ def test_the_shipped_band_weights_have_no_island(model):
         assert w[0] == 1.0
 
 
-def test_colour_guard_compares_with_the_better_part():
+def test_colour_guard_compares_with_physics_and_prior():
     from training.learning.tune_fusion import colour_guarded
 
-    assert colour_guarded([], 0.0010, 0.0020, 0.0010)
-    assert not colour_guarded([], 0.0011, 0.0020, 0.0010)
+    assert colour_guarded(0.0010, 0.0010) and colour_guarded(0.0009, 0.0010)
+    assert not colour_guarded(0.0011, 0.0010)
 
 
 @pytest.mark.slow  # 12 photos through the pose fit and the network (~10 s)

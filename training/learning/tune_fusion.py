@@ -216,11 +216,15 @@ def without_islands(network_bands: list[bool]) -> list[bool]:
     return use
 
 
-def colour_guarded(rows: list[dict[str, Any]], blend_duv: float, network_duv: float, prior_duv: float) -> bool:
+def colour_guarded(blend_duv: float, prior_duv: float) -> bool:
     """Whether the blend passes the colour guard: its mean Δu'v' on the tuning photos no worse
-    than the better of its parts'. Where it fails, :func:`choose_bands` gives every band inside
-    400–700 nm back to physics + prior (the bands that set the colour)."""
-    return blend_duv <= min(network_duv, prior_duv) + 1e-12
+    than physics + prior's alone. Where it fails, :func:`choose_bands` gives every band inside
+    400–700 nm (the bands that set the colour) back to physics + prior. The reference is physics
+    + prior, not the better of the two parts: the network's colour on photos of its own training
+    families is not evidence about lamps it never saw (the reason for the held-out-family rule;
+    on the real lamps the network everywhere read Δu'v' 0.0044 against 0.0003,
+    bench/band_choice_real.md), while physics + prior is the estimate the blend starts from."""
+    return blend_duv <= prior_duv + 1e-12
 
 
 def choose_bands(cases: list[Case], strength: float, floor: float,
@@ -242,7 +246,7 @@ def choose_bands(cases: list[Case], strength: float, floor: float,
     prior = [_peak1(c.physics) for c in cases]
     blended = [_fused(c, strength, floor, weight) for c in cases]
     scores = {k: _score(v, cases) for k, v in (("network", fused), ("prior", prior), ("blend", blended))}
-    if not colour_guarded(rows, *(scores[k]["delta_uv_prime"] for k in ("blend", "network", "prior"))):
+    if not colour_guarded(scores["blend"]["delta_uv_prime"], scores["prior"]["delta_uv_prime"]):
         for row in rows:
             if row["network"] and row["band"][0] >= 400 and row["band"][1] <= 700:
                 row["network"], row["colour_guard"] = False, True
