@@ -34,7 +34,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 PYTEST_WORKERS ?= 2
 PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-camera-files eval-camera-renderings eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -100,6 +100,11 @@ model: setup
 tune-fusion: setup
 	$(PY) -m training.learning.tune_fusion --write
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.band_choice_real --out bench/band_choice_real.md
+
+# Issue 21 items 1-2 before/after: the blind tails from physics and the band rule without islands,
+# on held-out synthetic spectra and then the 312 real lamps (cd-default, numpy renderer; ~15 min).
+eval-tails: setup
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.tails --out bench/tails.md
 
 eval: setup eval-camera-files eval-poses
 	$(PY) -m training.evaluation.evaluate --out bench/eval.md

@@ -21,6 +21,16 @@ from training.simulation.basis import REPO
 EVAL = REPO / "bench" / "eval.json"
 
 
+def _tails_lines(tails: dict[str, Any] | None) -> list[str]:
+    """When the blind tails (380–410, 680–780 nm) follow a Planck curve: chosen on synthetic photos."""
+    if not tails:
+        return []
+    return [f"- **Blind tails:** a Planck curve continues the estimate into 380–410 and 680–780 nm where one explains"
+            f" the photo's features (χ² per feature row ≤ {tails['thermal_chi2']:g}, none at ≥ {tails['other_chi2']:g},"
+            " linear between); the solve's own tails otherwise; spd_std widened there. Chosen on synthetic photos"
+            " of the prior's physical lamp families (`bench/tails_tuning.md`)."]
+
+
 def _fusion_lines(fusion: dict[str, Any] | None) -> list[str]:
     """How far the final solve trusts the network vs the photo: chosen on synthetic photos."""
     if not fusion:
@@ -34,7 +44,8 @@ def _fusion_lines(fusion: dict[str, Any] | None) -> list[str]:
         used = [f"{r['band'][0]}–{r['band'][1]}" for r in bands if r["network"]]
         lines.append("- **Where the network is used:** " + (", ".join(used) + " nm" if used else "nowhere") +
                      "; physics + prior elsewhere (per band, where the network did not beat it clearly on the same"
-                     " synthetic photos; `fusion.band_weight`, 20 nm transitions).")
+                     " synthetic photos, and never as an island narrower than 100 nm inside 400–700 nm;"
+                     " `fusion.band_weight`, 20 nm transitions).")
     return lines
 
 
@@ -93,6 +104,7 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         f" the basis cubes already rendered (rendering the {len(t['cubes'])} cubes comes on top: `bench/render.md`,"
         " `bench/buildable_cubes.md`).",
         *_fusion_lines(meta.get("fusion")),
+        *_tails_lines(meta.get("tails")),
         "- **Never used for training, tuning or selection:** the LSPDD lamps and colour-science's measured sources and",
         "  CIE illuminants.",
         "",

@@ -280,6 +280,13 @@ def main(argv: list[str] | None = None) -> int:
     fusion = tune(load_model(onnx_path), args.set, args.tune_photos, args.engine, unseen)
     metadata["training"]["tune_seconds"] = time.perf_counter() - t_tune
     metadata["fusion"] = fusion_metadata(fusion)
+    # When the blind tails follow a Planck curve (synthetic photos of the reference geometry).
+    from training.learning import tune_tails
+
+    tails = tune_tails.tune(tune_tails.tail_cases(max(4 * args.tune_photos, 8), model=load_model(onnx_path)))
+    metadata["tails"] = tune_tails.tails_metadata(tails)
+    if shipped:
+        (REPO / "bench" / "tails_tuning.md").write_text(tune_tails.report(tails), encoding="utf-8")
     fusion_report = args.fusion_report
     if fusion_report is None and shipped:
         fusion_report = REPO / "bench" / "fusion_tuning.md"

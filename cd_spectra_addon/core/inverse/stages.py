@@ -50,6 +50,7 @@ from ..pose.result import PoseFit
 from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.joint import JointSolve, edge_floors, joint_solve, usable
+from ..spectrum.tails import TailSettings, widen_std, with_tails
 from ..spectrum.solve import (PRIOR_STRENGTH, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
                              solve_fused, solve_physics, solve_prior)
 from ..pose.starts import CHEAP, ESCALATIONS
@@ -74,6 +75,7 @@ DIM_LEVEL_8BIT = 0.01
 
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "joint_spectrum",
            "network_estimate", "network_say", "fuse", "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "fuse_rows",
+           "tail_settings", "tailed",
            "focal_px_for", "focal_px_of", "physics_spd", "network_inputs", "covered_nm", "focal_px_from_photo",
            "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
@@ -432,6 +434,22 @@ def band_weight(model: SpectralModel, calibrated: bool = False) -> NDArray[np.fl
     return None if w is None else np.asarray(w, dtype=np.float64)
 
 
+def tail_settings(model: SpectralModel | None) -> TailSettings | None:
+    """When the blind tails follow a Planck curve (:mod:`..spectrum.tails`), chosen on synthetic
+    spectra when the model was built; None (the solve's own tails) for a model without one."""
+    return None if model is None else TailSettings.from_metadata(model.metadata.get("tails"))
+
+
+def tailed(spd: NDArray[np.float64], std: NDArray[np.float64], rows: Rows, settings: TailSettings | None
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``spd`` with the blind tails of :func:`..spectrum.tails.with_tails` and ``std`` widened
+    beyond the camera (peak 1); both unchanged without settings."""
+    if settings is None:
+        return spd, std
+    out, planck_tail, _, thermal = with_tails(spd, rows, settings)
+    return out, widen_std(std, out, planck_tail, thermal)
+
+
 def fuse(reading: Reading, physics: NDArray[np.float64], net: NDArray[np.float64], std: NDArray[np.float64],
          strength: float, floor: float, weight: NDArray[np.float64] | None) -> NDArray[np.float64]:
     """The model operating point's final SPD from its parts: the network's SPD (and uncertainty)
@@ -498,14 +516,15 @@ def _physics_point(readings: Sequence[Reading], model: SpectralModel | None, cal
 
 def _prior_point(readings: Sequence[Reading], model: SpectralModel | None, calibrated: bool,
                  fusion: tuple[float, float] | None, weights: Sequence[float] | None) -> Spectrum:
-    return _solved(readings, model_prior(model), weights)
+    return _solved(readings, model_prior(model), weights, tail_settings(model))
 
 
 def _solved(readings: Sequence[Reading], prior: tuple[GaussianPrior, NDArray[np.float64]] | None,
-            weights: Sequence[float] | None) -> Spectrum:
+            weights: Sequence[float] | None, tails: TailSettings | None = None) -> Spectrum:
     solved = _joint(readings, prior, weights)
     e = solved.spd / solved.spd.max()
-    return _finished(e, np.full(e.shape, np.nan), e, solved)
+    spd, std = tailed(e, np.full(e.shape, np.nan), solved.rows, tails)
+    return _finished(spd, std, e, solved)
 
 
 def network_estimate(readings: Sequence[Reading], model: SpectralModel, weights: Sequence[float] | None = None
@@ -569,6 +588,7 @@ def _model_point(readings: Sequence[Reading], model: SpectralModel | None, calib
     strength, floor = fusion or fusion_settings(model, calibrated)
     strength *= photo_count([rows_for(r.readout, r.matrix) for r in readings], weights)
     spd = fuse_rows(solved.rows, e, net, std, strength, floor, band_weight(model, calibrated))
+    spd, std = tailed(spd, std, solved.rows, tail_settings(model))
     return _finished(spd, std, e / e.max(), solved)
 
 

@@ -172,6 +172,18 @@ def _read_metadata(onnx_path: Path) -> dict[str, Any]:
             if weight.shape != (N_BANDS,) or not np.all(np.isfinite(weight)) or np.any((weight < 0) | (weight > 1)):
                 raise ModelError(f"model metadata {side.name}: fusion.{key} should be {N_BANDS} numbers in 0–1 — "
                                  "reinstall the add-on or rebuild the model")
+    tails = meta.get("tails")
+    if tails is not None:  # χ²/row of a Planck fit at which the blind tails are Planck's (spectrum.tails)
+        ok = isinstance(tails, dict)
+        try:
+            lo, hi = (float(tails["thermal_chi2"]), float(tails["other_chi2"])) if ok else (0.0, -1.0)
+            t_max = float(tails.get("max_temperature_k") or 1e9) if ok else 0.0
+        except (KeyError, TypeError, ValueError):
+            lo, hi, t_max = 0.0, -1.0, 0.0
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0.0 <= lo <= hi and t_max > 0):
+            raise ModelError(f"model metadata {side.name}: tails should hold 0 ≤ thermal_chi2 ≤ other_chi2 (and a "
+                             f"positive max_temperature_k, if any), not "
+                             f"{tails!r} — reinstall the add-on or rebuild the model")
     return meta
 
 
