@@ -68,8 +68,10 @@ test313: setup313
 	OPENBLAS_NUM_THREADS=1 $(PY313) -m pytest $(PYTEST_ARGS) $(TESTS313)
 
 # The inner loop: the core without Blender (bpy) or slow tests; `make test` (CI) runs everything.
+# Its tests are short and many: workers steal them from each other (a whole file per worker left
+# one core idle for the last ~8 s), at the cost of a few module fixtures built twice.
 test-fast: setup
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest $(PYTEST_ARGS) -m "not slow and not blender"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n $(PYTEST_WORKERS) --dist worksteal -m "not slow and not blender"
 
 # The bundled sample photo through the command-line estimator: result JSON, plot and .blend.
 demo: setup

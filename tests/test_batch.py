@@ -18,6 +18,7 @@ from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
 SAMPLE = Path(__file__).resolve().parents[1] / "samples" / "cd_photo.jpg"  # `make sample-photo`: the default preset
 
 
+@pytest.mark.slow  # ten full estimates of the sample photo (5 s): make test only
 def test_the_same_estimates_as_one_by_one_in_order(tmp_path: Path) -> None:
     second = tmp_path / "copy.jpg"
     second.write_bytes(SAMPLE.read_bytes())

@@ -99,7 +99,8 @@ def test_a_measured_tripod_oblique_lands_where_the_shipped_one_does():
 @pytest.mark.parametrize("change,words", [
     ({"lamp_distance_mm": 0.0}, "lamp distance from the disc centre (mm) must be a number > 0"),
     ({"camera_distance_mm": -5.0}, "camera distance from the disc centre (mm) must be a number > 0"),
-    ({"camera_distance_mm": 0.5}, "would touch the disc"),
+    ({"camera_distance_mm": 0.5}, "hangs over the disc"),
+    ({"lamp_distance_mm": 4.0}, "at least 50 mm"),
     ({"lamp_distance_mm": math.nan}, "lamp distance from the disc centre (mm) must be a number > 0, not nan"),
     ({"lamp_distance_mm": "700"}, "lamp distance from the disc centre (mm) must be a number > 0, not '700'"),
     ({"lamp_distance_mm": 2e5}, "more than 100 m"),
