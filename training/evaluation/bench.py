@@ -59,19 +59,19 @@ def _large_model(quick: bool) -> Path | None:
     return path
 
 
-def _points(quick: bool) -> list[dict[str, Any]]:
+def _points(quick: bool, large_model: bool = True) -> list[dict[str, Any]]:
     pts = [{"name": "physics only", "method": METHOD_PHYSICS, "model": None, "max_side": 1024},
            {"name": "physics + prior", "method": METHOD_PRIOR, "model": None, "max_side": 1024},
            {"name": "model (shipped)", "method": METHOD_MODEL, "model": None, "max_side": 1024, "shipped": True},
            {"name": "model, photo loaded at 512 px", "method": METHOD_MODEL, "model": None, "max_side": 512},
            {"name": "model, photo loaded at 256 px", "method": METHOD_MODEL, "model": None, "max_side": 256}]
-    large = _large_model(quick)
+    large = _large_model(quick) if large_model else None
     if large is not None:
         pts.append({"name": "larger model (1024-1024-512)", "method": METHOD_MODEL, "model": large, "max_side": 1024})
     return pts
 
 
-def error_vs_time(quick: bool) -> list[dict[str, Any]]:
+def error_vs_time(quick: bool, large_model: bool = True) -> list[dict[str, Any]]:
     size = 256 if quick else 768
     scene = Scene(load_preset(REFERENCE_PRESET).with_image_size(size))
     cube, _ = basis_cube(scene, "numpy", log=print)
@@ -87,7 +87,7 @@ def error_vs_time(quick: bool) -> list[dict[str, Any]]:
             path = Path(tmp) / f"{i}.jpg"
             photo.write_photo(path, img, "jpg", exif)
             paths.append(path)
-        for point in _points(quick):
+        for point in _points(quick, large_model):
             model = load_model(point["model"]) if point["model"] else load_model()
             errs, errs_all, duv, times = [], [], [], []
             estimate_photo(paths[0], preset=REFERENCE_PRESET, model=model, method=point["method"])  # warm caches
@@ -243,9 +243,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "bench.md")
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--no-large-model", dest="large_model", action="store_false",
+                        help="leave out the larger model's row (it is trained first where missing: ~an hour)")
     args = parser.parse_args(argv)
     result = {"machine": {"cpus": os.cpu_count(), "platform": platform.platform()},
-              "error_vs_time": error_vs_time(args.quick), "speed": speed(args.quick)}
+              "error_vs_time": error_vs_time(args.quick, args.large_model), "speed": speed(args.quick)}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.with_suffix(".json").write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
     sp = result["speed"]
@@ -255,7 +257,8 @@ def main(argv: list[str] | None = None) -> int:
              "Same JPEG photos (q90, 1 % noise, 768 × 768 capture, default camera) of every 5th LSPDD lamp; "
              "median ms per photo from file to SPD (load included). Pareto front over (ms, MAE 400–700, MAE 380–780). "
              "The default was chosen on synthetic photos (bench/fusion_tuning.md, models/MODEL_CARD.md); these real "
-             "lamps only check it.", "",
+             "lamps only check it." + ("" if args.large_model else " (The larger model's row was left out: "
+                                        "--no-large-model.)"), "",
              "| operating point | ms / photo | MAE 400–700 | MAE 380–780 | Δu'v' | Pareto front |", "|---|---|---|---|---|---|"]
     for r in result["error_vs_time"]:
         name = f"**{r['name']}**" if r["shipped"] else r["name"]
