@@ -83,9 +83,18 @@ OUTLINE_MARGIN = 1.1
 EXPLAINED_COST = 0.05
 
 
+# ... so long as the lines' capture explains the photo nearly as well as the best fit: Kim's
+# frames 1.06–1.28× the best cost (a wide lobe over the glow explains a little more, and is
+# wrong); a calibration shot's in-camera JPEG (7.6 % unexplained by the right capture) had a
+# capture pinned on its noise at 5.6×, which the rule then took.
+LINES_COST_RATIO = 2.0
+
+
 def lines_rule(fits: "list[_Fitted]") -> bool:
     """The fit's answer is the best capture the photo's lines pin (see EXPLAINED_COST)."""
-    return bool(fits) and fits[0].cost > EXPLAINED_COST and any(f.start.held for f in fits)
+    held = [f for f in fits if f.start.held]
+    return bool(fits) and fits[0].cost > EXPLAINED_COST and bool(held) and \
+        held[0].cost <= LINES_COST_RATIO * fits[0].cost
 _DEBUG = bool(os.environ.get("CDS_POSE_DEBUG"))
 
 
