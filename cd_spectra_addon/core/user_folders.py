@@ -35,23 +35,24 @@ def _config_dir() -> Path:
     return Path(base) / "cd_spectra"
 
 
+def _folder(env_name: str, host_set: Path | None, name: str) -> Path:
+    """The environment variable's folder, else the one the host application set, else ``name``
+    in the user's config folder."""
+    env = os.environ.get(env_name)
+    if env:
+        return Path(env)
+    if host_set is not None:
+        return host_set
+    return _config_dir() / name
+
+
 def calibration_dir() -> Path:
     """Where profiles live: $CD_SPECTRA_CALIBRATION_DIR, else the folder the host application set,
     else the user's config folder."""
-    env = os.environ.get(ENV_DIR)
-    if env:
-        return Path(env)
-    if _default_dir is not None:
-        return _default_dir
-    return _config_dir() / "calibrations"
+    return _folder(ENV_DIR, _default_dir, "calibrations")
 
 
 def preset_dir() -> Path:
     """Where the user's own presets live: $CD_SPECTRA_PRESET_DIR, else the folder the host
     application set, else the user's config folder (beside the calibrations)."""
-    env = os.environ.get(PRESET_ENV_DIR)
-    if env:
-        return Path(env)
-    if _default_preset_dir is not None:
-        return _default_preset_dir
-    return _config_dir() / "presets"
+    return _folder(PRESET_ENV_DIR, _default_preset_dir, "presets")
