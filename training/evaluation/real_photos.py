@@ -37,7 +37,8 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.joint import estimate_joint
 from cd_spectra_addon.core.inverse.load import load_for_estimate
-from cd_spectra_addon.core.inverse.stages import MIN_COVERAGE_NM, pose_photo, series_focal_px
+from cd_spectra_addon.core.inverse.batch import series_lenses
+from cd_spectra_addon.core.inverse.stages import MIN_COVERAGE_NM, pose_photo
 from cd_spectra_addon.core.photo.frames import frame_count, with_frame
 from cd_spectra_addon.core.planning.measured import Measurements, measured_preset
 from cd_spectra_addon.core.scene.capture import Preset, Scene
@@ -116,9 +117,10 @@ class FrameResult:
 
 
 def series_focal(path: Path, disc: str, frames: list[int]) -> float | None:
-    """The series' lens (file pixels) from the disc outlines of its frames (one camera and zoom)."""
-    images = [load_for_estimate(with_frame(path, f), kim_preset(disc, f)) for f in frames]
-    return series_focal_px(images, kim_preset(disc, frames[0]))
+    """The series' lens (file pixels) from the disc outlines of its frames (one camera and zoom),
+    as ``estimate`` of the GIF finds it (:func:`~cd_spectra_addon.core.inverse.batch.series_lenses`)."""
+    lenses = series_lenses([with_frame(path, f) for f in frames], [kim_preset(disc, f) for f in frames])
+    return lenses.get(str(path))
 
 
 def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = None) -> FrameResult:
