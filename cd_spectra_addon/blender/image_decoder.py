@@ -9,21 +9,30 @@ Raw file values are read: the image is marked as data (Non-Color: no OCIO transf
 applies the transfer curve it decides from the header, the same as on every other path) and the
 alpha mode to Channel Packed (Blender would otherwise premultiply float buffers). The datablock
 is created with ``check_existing=False`` and removed afterwards, so the user's file is unchanged.
+
+Registering imports only the decoder registry (:mod:`core.photo.decoders`), not the photo
+pipeline, so that enabling the add-on stays fast.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import bpy
 import numpy as np
 
 from ..core.errors import PhotoError
-from ..core.photo.images import DecodedPixels, PhotoHeader, register_decoder, unregister_decoder
+from ..core.photo.decoders import register_decoder, unregister_decoder
+
+if TYPE_CHECKING:
+    from ..core.photo.image_formats import DecodedPixels, PhotoHeader
 
 __all__ = ["decode_with_blender", "register", "unregister"]
 
 
 def decode_with_blender(path: str, header: PhotoHeader) -> DecodedPixels | None:
     """Full-resolution pixels of ``path`` as stored, top row first; None if Blender cannot read it."""
+    from ..core.photo.image_formats import DecodedPixels  # loaded already: the core is reading a photo
     try:
         image = bpy.data.images.load(path, check_existing=False)
     except RuntimeError:

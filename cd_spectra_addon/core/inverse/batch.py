@@ -21,8 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CDSpectraError
+from ..photo.decoders import decoders_need_main_thread
 from ..photo.frames import split_frame
-from ..photo.images import LinearImage, decoders_need_main_thread
+from ..photo.images import LinearImage
 from ..scene.capture import Preset, load_preset
 from .estimate import estimate_image
 from .load import load_for_estimate

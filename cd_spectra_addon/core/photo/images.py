@@ -51,7 +51,7 @@ Decisions (measured on this project's 2-core machine, Pillow 13, numpy 1.26):
   are sequential along the row, and a vectorised anti-diagonal wavefront was the best numpy
   could do; real encoders choose filters adaptively, so most files have them. Blender's loader
   took 1.1–1.7 s plus ~1 s to import bpy and 32 bytes per pixel. So: two Pillow passes by
-  default, and Blender's loader as a registered fallback (:func:`register_decoder`,
+  default, and Blender's loader as a registered fallback (:mod:`.decoders`,
   ``blender/image_decoder.py``) for what the trick does not cover (16-bit grey+alpha or CMYK,
   float RGB TIFF, subsampled EXR, ...).
 * **Saturation.** A loaded pixel is saturated if any contributing decoded pixel has any
@@ -87,6 +87,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import PhotoError
+from .decoders import Decoder, decoders_need_main_thread, register_decoder, registered_decoders, unregister_decoder
 from .image_formats import (
     DECODE_ERRORS, MAX_PIXELS, MIN_SIDE, DecodedPixels, ExifInfo, PhotoHeader, Pixels, Unsupported,
     array_pixels, check_file, exif_from_pillow, exr_header, exr_pixels, heif_header, heif_pixels, open_pillow,
@@ -110,9 +111,6 @@ BAND_PIXELS = 1_000_000
 CLIP_EPS = 1e-3
 CLIP_MIN_COUNT = 8
 CLIP_RATIO = 4
-
-Decoder = Callable[[str, PhotoHeader], "DecodedPixels | None"]
-_decoders: list[Decoder] = []
 
 
 @dataclass(frozen=True)
@@ -141,26 +139,6 @@ class LinearImage:
     def to_original(self, row: float, col: float) -> tuple[float, float]:
         """(x, y) in the displayed photo's original pixels of a loaded (row, col) position."""
         return (self.origin_px[0] + (col + 0.5) * self.scale - 0.5, self.origin_px[1] + (row + 0.5) * self.scale - 0.5)
-
-
-def register_decoder(func: Decoder) -> None:
-    """Add a fallback decoder, tried in order for files the built-in decoders cannot read.
-
-    ``func(path, header)`` returns :class:`DecodedPixels` or None (not its kind of file). It is
-    only called after the header passed the size checks."""
-    if func not in _decoders:
-        _decoders.append(func)
-
-
-def unregister_decoder(func: Decoder) -> None:
-    if func in _decoders:
-        _decoders.remove(func)
-
-
-def decoders_need_main_thread() -> bool:
-    """Whether a registered fallback decoder is in use: Blender's loader is, and bpy may only be
-    called from the main thread (a float TIFF loaded on a worker thread crashed the process)."""
-    return bool(_decoders)
 
 
 def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto",
@@ -560,7 +538,8 @@ def _factors(long_side: int, max_side: int) -> tuple[int, int]:
 
 
 def _fallback(name: str, header: PhotoHeader, reason: Unsupported) -> Pixels:
-    for decoder in list(_decoders):
+    decoders = registered_decoders()
+    for decoder in decoders:
         try:
             decoded = decoder(header.path, header)
         except PhotoError:
@@ -573,7 +552,7 @@ def _fallback(name: str, header: PhotoHeader, reason: Unsupported) -> Pixels:
                 raise PhotoError(f"{name}: the fallback decoder returned {pixels.width}x{pixels.height} "
                                  f"pixels, the header says {header.width}x{header.height}")
             return pixels
-    hint = "no fallback decoder could read it" if _decoders else \
+    hint = "no fallback decoder could read it" if decoders else \
         "no fallback decoder is registered (inside Blender the add-on registers Blender's image loader)"
     raise PhotoError(f"{name}: {reason}; {hint}")
 
