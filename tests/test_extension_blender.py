@@ -192,8 +192,9 @@ print(json.dumps({"enable_ms": 1e3 * (t1 - t0), "register_ms": 1e3 * (t3 - t2),
 
 def test_node_group_holds_the_spd_and_is_reused(addon: Installed) -> None:
     ng = addon.sub("cd_spectra_addon.blender.node_group")
+    colour = addon.sub("cd_spectra_addon.core.spectra.colour")
     spd = blackbody_spd(3200.0)
-    info = ng.spectral_colour(spd, "Linear Rec.709")
+    info = colour.spectral_colour(spd, "Linear Rec.709")
     group = ng.ensure_node_group(spd, info, {"kind": "estimate", "name": "CD Spectra"})
     again = ng.ensure_node_group(list(spd), info, {"kind": "estimate"})
     assert again == group
@@ -215,15 +216,15 @@ def test_node_group_holds_the_spd_and_is_reused(addon: Installed) -> None:
     assert list(group["cd_spectra_wavelength_nm"]) == [380.0 + 5 * i for i in range(81)]
     assert _group_colour(group) == pytest.approx(info.rgb, abs=1e-6)
 
-    other = ng.ensure_node_group(blackbody_spd(6500.0), ng.spectral_colour(blackbody_spd(6500.0),
-                                                                          "Linear Rec.709"))
+    other = ng.ensure_node_group(blackbody_spd(6500.0), colour.spectral_colour(blackbody_spd(6500.0),
+                                                                              "Linear Rec.709"))
     assert other != group and len(bpy.data.node_groups) == 2
 
 
 def test_broken_node_group_is_rebuilt_not_duplicated(addon: Installed) -> None:
     ng = addon.sub("cd_spectra_addon.blender.node_group")
     spd = blackbody_spd(2700.0)
-    info = ng.spectral_colour(spd, "Linear Rec.709")
+    info = addon.sub("cd_spectra_addon.core.spectra.colour").spectral_colour(spd, "Linear Rec.709")
     group = ng.ensure_node_group(spd, info)
     group.nodes.remove(group.nodes[ng.CURVE_NODE])
     assert ng.ensure_node_group(spd, info) == group
@@ -305,8 +306,8 @@ def test_no_nan_ever_reaches_a_light(addon: Installed, bad: float) -> None:
     assert scene_snapshot() == before
 
     light_mod = addon.sub("cd_spectra_addon.blender.light")
-    ng = addon.sub("cd_spectra_addon.blender.node_group")
-    nan_colour = ng.SpectralColour((float("nan"), 1.0, 1.0), False, (0.3, 0.3), None, None, "Linear Rec.709")
+    colour = addon.sub("cd_spectra_addon.core.spectra.colour")
+    nan_colour = colour.SpectralColour((float("nan"), 1.0, 1.0), False, (0.3, 0.3), None, None, "Linear Rec.709")
     with pytest.raises(ValueError):
         light_mod.create_light(bpy.context.scene.collection, blackbody_spd(3000.0), nan_colour)
     assert scene_snapshot() == before
@@ -480,6 +481,7 @@ bpy.context.preferences.extensions.repos.new(name="t", module=module.split(".")[
 addon_utils.enable(module, default_set=True)
 B = module + ".cd_spectra_addon.blender"
 panels, state, ng = (importlib.import_module(f"{B}.{m}") for m in ("panels", "state", "node_group"))
+colour = importlib.import_module(module + ".cd_spectra_addon.core.spectra.colour")
 sys.path.insert(0, tests_dir)
 from extension_support import blackbody_spd, fake_estimate
 settings = bpy.context.scene.cd_spectra
@@ -487,10 +489,10 @@ if scenario != "empty":
     spd = blackbody_spd(3000.0)
     state.store_estimate(settings, fake_estimate(spd, cct_k=None, duv=None, warnings=[
         "The disc is not centred in the photo; the estimate is less reliable.", "Over-exposed."]))
-    settings.node_group = ng.ensure_node_group(spd, ng.spectral_colour(spd, "Linear Rec.709"))
+    settings.node_group = ng.ensure_node_group(spd, colour.spectral_colour(spd, "Linear Rec.709"))
 if scenario == "reference":
     ref = blackbody_spd(2856.0)
-    settings.reference_node_group = ng.ensure_node_group(ref, ng.spectral_colour(ref, "Linear Rec.709"))
+    settings.reference_node_group = ng.ensure_node_group(ref, colour.spectral_colour(ref, "Linear Rec.709"))
     settings.reference_json = json.dumps({"name": "CIE A", "spd": ref, "metrics": {
         "mae_400_700": 0.02, "delta_uv_prime": 0.001}})
     settings.calibration_lamp = "FILE"

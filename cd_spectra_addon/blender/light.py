@@ -7,7 +7,7 @@ before it touches ``bpy.data``, so a failure leaves the file as it was (no half-
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import bpy
 from mathutils import Vector
@@ -15,12 +15,14 @@ from mathutils import Vector
 from .node_group import (
     HASH_KEY,
     KEY,
-    SpectralColour,
     ensure_node_group,
     find_node_group,
     metadata_properties,
     spd_hash,
 )
+
+if TYPE_CHECKING:
+    from ..core.spectra.colour import SpectralColour
 
 GROUP_NODE = "CD Spectra"
 # Blender's own defaults for Add › Light (W, or W/m² for the sun).

@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import hashlib
 import struct
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import bpy
 
-from ..core.spectra.colour import SpectralColour, spectral_colour  # noqa: F401  (re-exported: the colour of an SPD is the core's)
 from ..core.spectra.grid import N_BANDS, WAVELENGTH_MAX_NM, WAVELENGTH_MIN_NM, WAVELENGTHS_NM
+
+if TYPE_CHECKING:  # the colour is computed by the callers (core.spectra.colour, loaded on first use)
+    from ..core.spectra.colour import SpectralColour
 
 GROUP_PREFIX = "CD Spectra SPD"
 KEY = "cd_spectra"  # prefix of every custom property the add-on writes

@@ -9,7 +9,6 @@ from typing import Any
 
 import bpy
 
-from ..core.spectra.colour import DEFAULT_WORKING_SPACE
 from ..core.spectra.grid import N_BANDS
 from .properties import GENERIC_CAMERA, NO_CALIBRATION
 
@@ -27,7 +26,7 @@ def working_space_and_warning() -> tuple[str, str | None]:
     ``lin_ap1_scene``) names it independently of the OCIO config's display names. A custom OCIO
     config may have neither a known id nor a known name: Rec.709 then, and say so.
     """
-    from ..core.spectra.colour import known_working_space
+    from ..core.spectra.colour import DEFAULT_WORKING_SPACE, known_working_space
 
     colorspace = getattr(bpy.data, "colorspace", None)
     if colorspace is None:
@@ -118,7 +117,6 @@ def calibration_choice(value: str) -> str | None:
 
 
 __all__ = [
-    "DEFAULT_WORKING_SPACE",
     "GENERIC_CAMERA",
     "working_space",
     "working_space_and_warning",

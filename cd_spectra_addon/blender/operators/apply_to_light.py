@@ -6,7 +6,6 @@ import bpy
 
 from .. import state
 from ..light import apply_spd
-from ..node_group import spectral_colour
 
 
 def _selected_lights(context: bpy.types.Context) -> list[bpy.types.Object]:
@@ -34,6 +33,8 @@ class CDSPECTRA_OT_apply_to_light(bpy.types.Operator):
         return True
 
     def execute(self, context: bpy.types.Context) -> set[str]:
+        from ...core.spectra.colour import spectral_colour
+
         data = state.last_estimate(context.scene.cd_spectra)
         lights = _selected_lights(context)
         if data is None or not lights:

@@ -9,7 +9,7 @@ from bpy.props import EnumProperty
 
 from .. import state
 from ..light import create_light
-from ..node_group import find_node_group, spd_hash, spectral_colour
+from ..node_group import find_node_group, spd_hash
 from ..properties import LIGHT_TYPES
 
 
@@ -32,6 +32,8 @@ class CDSPECTRA_OT_create_light(bpy.types.Operator):
         return self.execute(context)
 
     def execute(self, context: bpy.types.Context) -> set[str]:
+        from ...core.spectra.colour import spectral_colour
+
         settings = context.scene.cd_spectra
         data = state.last_estimate(settings)
         if data is None:

@@ -10,7 +10,7 @@ from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from ...core.errors import CDSpectraError
 from .. import photo_frames, state
-from ..node_group import ensure_node_group, spectral_colour
+from ..node_group import ensure_node_group
 from ..progress import progress
 from ..properties import (
     DEFAULT_PRESET,
@@ -93,6 +93,8 @@ def run_and_store(operator: bpy.types.Operator, context: bpy.types.Context,
     """Run ``estimate(update, working_space)`` under a progress cursor and store its result as
     the scene's last estimate with its node group; False (reported, the scene untouched) when
     it fails. Shared by the one-photo and the several-photo estimate."""
+    from ...core.spectra.colour import spectral_colour
+
     settings = context.scene.cd_spectra
     space = state.working_space_for(operator)
     with progress(context) as update:

@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ImportHelper
 
 from ...core.errors import CDSpectraError
 from .. import state
-from ..node_group import ensure_node_group, spectral_colour
+from ..node_group import ensure_node_group
 from ..properties import SPECTRA_FILTER_GLOB
 from ..spectra_io import compare, read_reference
 
@@ -31,6 +31,8 @@ class CDSPECTRA_OT_load_reference_spd(bpy.types.Operator, ImportHelper):
         return super().invoke(context, event)
 
     def execute(self, context: bpy.types.Context) -> set[str]:
+        from ...core.spectra.colour import spectral_colour
+
         settings = context.scene.cd_spectra
         path = bpy.path.abspath(self.filepath)
         if not path:
