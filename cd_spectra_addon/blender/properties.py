@@ -22,8 +22,8 @@ from bpy.props import (
     StringProperty,
 )
 
+from ..core.scene.preset_names import DEFAULT_PRESET
 from ..core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA
-from ..core.scene.capture import DEFAULT_PRESET
 from ..core.spectra.illuminants import KNOWN_LAMPS
 from .registration import register_classes, unregister_classes
 

@@ -8,8 +8,8 @@ from typing import Any
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ...core.scene.capture import DEFAULT_PRESET
 from ...core.errors import CDSpectraError
+from ...core.scene.preset_names import DEFAULT_PRESET
 from .. import state
 from ..progress import progress
 from ..properties import PHOTO_FILTER_GLOB, REFERENCE_LAMPS, calibration_names
