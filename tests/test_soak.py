@@ -70,7 +70,7 @@ def blender_addon(request: pytest.FixtureRequest) -> Installed:
 
 
 def _decoders(installed: Installed) -> int:
-    return len(installed.sub("cd_spectra_addon.core.photo.images")._decoders)
+    return len(installed.sub("cd_spectra_addon.core.photo.decoders").registered_decoders())
 
 
 @pytest.mark.blender
