@@ -3,6 +3,11 @@
 Registration goes by sub-module, each with its own ``register``/``unregister`` (the pattern of
 Blender's node_wrangler). A failure half-way unregisters what was already registered and then
 raises, so Blender shows the real error and no half-registered add-on stays behind.
+
+Enabling runs at every Blender start-up, so importing this package loads of the core only the
+names and small tables the classes are defined with (the allow-list is
+``tests/test_extension_blender.py``'s ``ENABLE_CORE_MODULES``); the photo pipeline, the colour
+tables, the capture geometry and the estimator are imported where an operator first uses them.
 """
 
 from __future__ import annotations
