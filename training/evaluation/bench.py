@@ -112,13 +112,22 @@ def error_vs_time(quick: bool, large_model: bool = True) -> list[dict[str, Any]]
     return rows
 
 
+# The big photos are rendered at this size and upsampled: sharper than any read of them. The
+# loader reads a small disc through a window at a finer draft scale (core/inverse/load.py):
+# tripod-oblique's at 1/4 of 6000 px, 1500 px across the frame. Rendered at 768 × 512, that
+# window was a blur of the render (a 2-px streak spread over 4): the pose fit could explain only
+# 99.1 % of it, escalated every time (1.55 s) and read MAE 0.12; rendered at 1536 × 1024, 0.46 s
+# and 0.050.
+RENDER_SIZE = (1536, 1024)
+
+
 def _big_jpeg(path: Path, preset_name: str, size: tuple[int, int], lamp: Lamp, noisy: bool = True) -> None:
     """A ``size`` JPEG of the preset's nominal capture under ``lamp`` (q90, EXIF focal length):
-    rendered at 768 × 512 by the numpy twin and upsampled. A camera's JPEG carries sensor noise at
-    full resolution (σ ≈ 2 codes at base ISO); an upsampled render does not, and compresses (and
-    decodes) several times faster than any real 24 MP photo would."""
+    rendered at :data:`RENDER_SIZE` by the numpy twin and upsampled. A camera's JPEG carries
+    sensor noise at full resolution (σ ≈ 2 codes at base ISO); an upsampled render does not, and
+    compresses (and decodes) several times faster than any real 24 MP photo would."""
     preset = load_preset(preset_name)
-    scene = Scene(preset.with_image_size(768, 512))
+    scene = Scene(preset.with_image_size(*RENDER_SIZE))
     cube, _ = basis_cube(scene, "numpy", log=print)
     img, _ = photo.synthesize(cube, lamp.spd, load_camera(DEFAULT_CAMERA), 1.0, 0.01, np.random.default_rng(0),
                               photo.track_mask(scene))

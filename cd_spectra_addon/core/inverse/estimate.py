@@ -245,6 +245,12 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append("no focal length in the photo's EXIF: taken from the disc's outline in the other frames "
                         "of its file and the preset's camera distance")
         score *= 0.9
+    elif focal_source in ("exif-35mm, resized", "exif, cropped"):
+        kind = "resized" if focal_source.endswith("resized") else "cropped"
+        used = "35 mm equivalent" if kind == "resized" else "focal length over the sensor's pixel size"
+        warnings.append(f"the photo's EXIF gives two focal lengths that disagree: it was {kind} after it was taken; "
+                        f"its {used} explains the photo and is used — read the camera's own file where you can")
+        score *= 0.9
     elif focal_source == "outline":
         warnings.append("no focal length in the photo's EXIF: taken from the disc's outline and the preset's "
                         "camera distance")

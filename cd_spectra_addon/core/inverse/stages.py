@@ -76,7 +76,8 @@ DIM_LEVEL_8BIT = 0.01
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "joint_spectrum",
            "network_estimate", "network_say", "fuse", "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "fuse_rows",
            "tail_settings", "tailed",
-           "focal_px_for", "focal_px_of", "physics_spd", "network_inputs", "covered_nm", "focal_px_from_photo",
+           "focal_px_for", "focal_px_of", "focal_px_options", "EXIF_FOCAL_AGREEMENT", "physics_spd", "network_inputs",
+           "covered_nm", "focal_px_from_photo",
            "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
@@ -153,16 +154,43 @@ def focal_px_of(exif: ExifInfo, width: int, scale: float, displayed_size: tuple[
                 preset: Preset) -> tuple[float, str]:
     """:func:`focal_px_for` of an image ``width`` loaded pixels wide at ``scale`` original pixels
     per loaded one, from a photo of ``displayed_size``: known before the pixels are decoded."""
+    found = _exif_focals(exif, scale, displayed_size)
+    if found:
+        return found[0]
+    cam = preset.camera
+    return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
+
+
+# The EXIF's two focal lengths (FocalLength × FocalPlaneXResolution, in the sensor's pixels, and
+# the 35 mm equivalent over the photo's long side) agree within this factor in a camera's own
+# file (a 4:3 sensor's diagonal-based equivalent is 4 % off the long side's). Beyond it the photo
+# was resized (the first is stale: an app that keeps the EXIF, a 1024 px copy of the sample photo
+# read 2× its lens and no white light at all) or cropped (the second is) after it was taken.
+EXIF_FOCAL_AGREEMENT = 1.15
+
+
+def _exif_focals(exif: ExifInfo, scale: float, displayed_size: tuple[int, int]) -> list[tuple[float, str]]:
+    """The EXIF's focal lengths in loaded pixels: the sensor's ("exif"), then the 35 mm
+    equivalent's ("exif-35mm"), each where its tags hold a finite positive value."""
+    out = []
     if exif.focal_length_mm and exif.focal_plane_px_per_mm:
         value = exif.focal_length_mm * exif.focal_plane_px_per_mm / scale
         if math.isfinite(value) and value > 0:
-            return value, "exif"
+            out.append((value, "exif"))
     if exif.focal_length_35mm:
         value = exif.focal_length_35mm / 36.0 * max(displayed_size) / scale  # a window keeps the pitch
         if math.isfinite(value) and value > 0:
-            return value, "exif-35mm"
-    cam = preset.camera
-    return cam.focal_length_mm / cam.sensor_width_mm * width, "preset"
+            out.append((value, "exif-35mm"))
+    return out
+
+
+def focal_px_options(image: LinearImage) -> list[tuple[float, str]]:
+    """The EXIF's focal lengths where they disagree (see EXIF_FOCAL_AGREEMENT): the pose stage
+    fits the photo with each and keeps the one that explains it. One or none where they agree."""
+    found = _exif_focals(image.exif, image.scale, image.displayed_size)
+    if len(found) == 2 and max(found[0][0], found[1][0]) > EXIF_FOCAL_AGREEMENT * min(found[0][0], found[1][0]):
+        return found
+    return found[:1]
 
 
 # The outline's focal length is believed within this factor of the preset's lens (a phone's 26 mm
@@ -252,8 +280,20 @@ def pose_photo(
         clipped_masks = clipped_channels(image.rgb, image.saturated)
     excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
     if fit is None:
-        fit = fit_pose(rgb - rough_offset(rgb, excluded), preset, focal_px, sensitivities=camera.sensitivities,
+        linear = rgb - rough_offset(rgb, excluded)
+        fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations)
+        options = focal_px_options(image) if source.startswith("exif") else []
+        if len(options) > 1:
+            # resized or cropped after it was taken: the focal length that explains the photo
+            for other, other_source in options:
+                if other == focal_px:
+                    continue
+                alt = fit_pose(linear, preset, other, sensitivities=camera.sensitivities, saturated=excluded,
+                               strategies=strategies, escalations=escalations)
+                if alt.residual < fit.residual:
+                    fit, focal_px, source = alt, other, other_source
+            source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]
     return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
                  fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3}, display=display,

@@ -69,6 +69,10 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # and the rings' own centre, one tier on, starts in the right one.)
 TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lines"), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
+# ...nor LM from a start that leaves more than this unexplained: such a start is another capture
+# altogether (phone-near-axis: the rings' far centre at 0.46 against 0.0002 fitted), and LM from
+# it ran its every iteration to end where it began (bench/bench.md: 130 of 390 ms).
+FAR_START_COST = 0.3
 # Where the disc's outline shows, the fit is judged on the pixels inside it (semi-axes × this):
 # a lit table, a lamp in the frame or objects around the disc are not the disc's to explain, and
 # a wide lobe over them must not look like a rainbow. Elsewhere on the whole photo: a region
@@ -360,8 +364,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         scored.sort(key=lambda item: item[0])
         tried = 0
         for initial, s in scored:
-            if tried == TRIED_STARTS:
-                break
+            if tried == TRIED_STARTS or (fits and fits[0].cost <= GOOD_COST and initial > FAR_START_COST):
+                break  # (scored is sorted: the rest are farther still)
             if any(initial >= seen_cost and _same_capture(s.capture, seen, size, focal_px)
                    for seen, seen_cost in visited):
                 continue  # LM from here would find what it found from there

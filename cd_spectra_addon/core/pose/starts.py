@@ -29,12 +29,14 @@ name, so an evaluation can run or leave out any of them by name and a test can c
 from __future__ import annotations
 
 import math
+from functools import cached_property
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ..numerics.fft import fast_length
 from ..photo.resample import box_downsample, channel_sum
 from ..planning.capture_advice import glint_px
 from ..scene.capture import Preset, Scene
@@ -106,6 +108,15 @@ class StartContext:
     def nominal(self) -> RelativePose:
         return relative_pose(nominal_scene(self.preset, self.size, self.focal_px))
 
+    @cached_property
+    def small(self) -> tuple[NDArray[np.float64], int]:
+        """The photo's brightness box-averaged to about PATTERN_SIDE, less its median, and the
+        factor: what the pattern, the rings and the arcs are read from (once per photo)."""
+        height, width = self.rgb.shape[:2]
+        factor = max(1, int(round(max(height, width) / PATTERN_SIDE)))
+        lum = channel_sum(box_downsample(self.rgb, factor))
+        return np.clip(lum - np.median(lum), 0.0, None), factor
+
 
 def preset_start(ctx: StartContext) -> list[Start]:
     return [Start("preset", ctx.nominal())]
@@ -124,20 +135,18 @@ def _expected_pattern(scene: Scene) -> NDArray[np.float64]:
 def _shift_by_correlation(photo_lum: NDArray[np.float64], pattern: NDArray[np.float64]) -> tuple[float, float]:
     """(rows, cols) by which the photo's bright pattern is displaced from the predicted one."""
     h, w = photo_lum.shape
-    a = np.fft.rfft2(photo_lum, s=(2 * h, 2 * w))
-    b = np.fft.rfft2(pattern, s=(2 * h, 2 * w))
-    corr = np.fft.irfft2(a * np.conj(b), s=(2 * h, 2 * w))
+    shape = (fast_length(2 * h), fast_length(2 * w))  # ≥ 2×: no shift wraps onto another
+    a = np.fft.rfft2(photo_lum, s=shape)
+    b = np.fft.rfft2(pattern, s=shape)
+    corr = np.fft.irfft2(a * np.conj(b), s=shape)
     r, c = np.unravel_index(int(np.argmax(corr)), corr.shape)
-    r = r - 2 * h if r >= h else r
-    c = c - 2 * w if c >= w else c
+    r = r - shape[0] if r >= h else r
+    c = c - shape[1] if c >= w else c
     return float(r), float(c)
 
 
 def _small(ctx: StartContext) -> tuple[NDArray[np.float64], int]:
-    height, width = ctx.rgb.shape[:2]
-    factor = max(1, int(round(max(height, width) / PATTERN_SIDE)))
-    lum = channel_sum(box_downsample(ctx.rgb, factor))
-    return np.clip(lum - np.median(lum), 0.0, None), factor
+    return ctx.small
 
 
 def pattern_start(ctx: StartContext) -> list[Start]:
@@ -157,8 +166,9 @@ def symmetry_centre(lum: NDArray[np.floating]) -> tuple[float, float]:
     (I * I)(s) peaks at s = 2c when I is point-symmetric about c (sub-pixel by parabolas)."""
     img = np.clip(np.asarray(lum, dtype=np.float64) - np.median(lum), 0, None)
     h, w = img.shape
-    spec = np.fft.rfft2(img, s=(2 * h, 2 * w))
-    conv = np.fft.irfft2(spec * spec, s=(2 * h, 2 * w))
+    shape = (fast_length(2 * h), fast_length(2 * w))  # ≥ 2×: the autoconvolution does not wrap
+    spec = np.fft.rfft2(img, s=shape)
+    conv = np.fft.irfft2(spec * spec, s=shape)
     peak = np.unravel_index(int(np.argmax(conv)), conv.shape)
     out = []
     for axis, p in enumerate(peak):
