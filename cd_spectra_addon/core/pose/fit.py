@@ -335,6 +335,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
 
     fits: list[_Fitted] = []
     visited: list[tuple[RelativePose, float]] = []  # where LM started (cost ∞) and ended (its cost)
+    started: list[Start] = []  # the starts LM ran from
     oblique = not near_axis(preset)
     for k, tier in enumerate(TIERS):
         names = [name for name in tier if name in strategies or name in escalations]
@@ -367,9 +368,10 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
             if tried == TRIED_STARTS or (fits and fits[0].cost <= GOOD_COST and initial > FAR_START_COST):
                 break  # (scored is sorted: the rest are farther still)
             if any(initial >= seen_cost and _same_capture(s.capture, seen, size, focal_px)
-                   for seen, seen_cost in visited):
+                   for seen, seen_cost in visited) or any(s.repeats(t) for t in started):
                 continue  # LM from here would find what it found from there
             visited.append((s.capture, math.inf))
+            started.append(s)
             tried += 1
             p = problem(s.pose)
             x = s.params

@@ -81,6 +81,14 @@ class Start:
     def capture(self) -> RelativePose:
         return apply_params(self.pose, self.params)
 
+    def repeats(self, other: "Start") -> bool:
+        """The same start exactly (base capture, parameters, pinning): a fit from it finds what
+        the other's found (the pattern found no shift: the preset's start again)."""
+        a, b = self.pose, other.pose
+        return (self.held == other.held and a.lobe_sigma == b.lobe_sigma and np.array_equal(self.params, other.params)
+                and all(np.array_equal(getattr(a, name), getattr(b, name))
+                        for name in ("disc_centre_mm", "disc_normal", "lamp_mm", "disc_x")))
+
 
 Cost = Callable[[RelativePose], float]
 
