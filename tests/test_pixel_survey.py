@@ -137,3 +137,21 @@ def test_an_offset_is_called_insignificant_only_where_the_percentile_would_be():
                               (50.0, np.median(rows, axis=0))):
             if ambient._insignificant(flat, keep, percent):
                 assert not np.any(ambient._significant(full)), (trial, percent)
+
+
+@pytest.mark.parametrize("name", ["cd-default", "tripod-oblique"])
+def test_pixel_diffraction_in_chunks_is_the_one_pass_value_for_value(monkeypatch, name):
+    """The kernel runs over cache-sized chunks of pixels (PIXEL_CHUNK): the same arrays, element
+    by element, as one pass over all of them, also at sub-pixel sample positions."""
+    from cd_spectra_addon.core.scene import diffraction
+
+    scene = Scene(load_preset(name).with_image_size(160, 120))
+    index = np.arange(160 * 120, dtype=np.int64)[::3]
+    rows, cols = np.divmod(index, 160)
+    rows, cols = rows + 0.25, cols - 0.125
+    whole = pixel_diffraction(scene, index, rows, cols)
+    monkeypatch.setattr(diffraction, "PIXEL_CHUNK", 97)
+    chunked = pixel_diffraction(scene, index, rows, cols)
+    assert whole.index.size > 0
+    for key in PixelDiffraction.__dataclass_fields__:
+        assert np.array_equal(getattr(whole, key), getattr(chunked, key)), key
