@@ -40,6 +40,7 @@ PIPELINE_GAIN_LIMITS = (0.02, 50.0)
 PIPELINE_MIN_SIGNAL = 0.001
 PIPELINE_SMOOTH_BINS = 1
 SMOOTH_BINS = 2  # gains are smoothed over ±2 bins (±10 nm of λ₁)
+GAIN_ROUNDS = 20  # several shots: alternations between the gains and each shot's brightness
 # How well a calibration explains its own photo: the weighted RMS of (measured − predicted) /
 # peak over the bins, the known lamp scaled to the photo, before any gains. Above this the
 # model of the camera (its processing, its sensitivities) cannot undo what the photo shows and
@@ -93,13 +94,13 @@ def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted
     smoothed, limited, and 1 where the known lamp gives too little signal to tell.
 
     Several shots (arrays (S, NB, 3), ``valid`` (S, NB): lamps of different colours, same camera
-    and set-up): each prediction is scaled to its own photo, and a bin's gain is Σ measured /
-    Σ predicted over the shots (and ±``smooth_bins``) where it is strong, each shot's values
-    relative to its peak — so the bins one lamp leaves dark are measured by another, and a
-    shot's exposure does not decide its weight. One shot: its measured / predicted, as ever."""
+    and set-up): a bin's gain is Σ measured / Σ predicted over the shots (and ±``smooth_bins``)
+    where each is strong, each shot relative to its peak — so the bins one lamp leaves dark are
+    measured by another, and a shot's exposure does not decide its weight. Each shot's
+    brightness is refitted to the gains (they tilt a shot's own least-squares scale), so that
+    bins measured by different lamps are on one scale. One shot: measured / predicted, as ever."""
     m, v, p = _by_shot(measured, valid, predicted)
-    num, den = np.zeros(p.shape[1:]), np.zeros(p.shape[1:])
-    strong_any = np.zeros(p.shape[1:], bool)
+    ys, qs, strongs = [], [], []
     for mk, vk, pk in zip(m, v, p):
         ok = vk[:, None] & (pk > 0)
         scale = float(np.sum(mk[ok] * pk[ok]) / max(np.sum(pk[ok] ** 2), 1e-300))
@@ -108,16 +109,29 @@ def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted
         pred = pk * scale
         peak = float(pred.max())
         strong = ok & (pred > min_signal * peak)
-        num += np.where(strong, mk, 0.0) / peak
-        den += np.where(strong, pred, 0.0) / peak
-        strong_any |= strong
-    gains = np.ones_like(num)
+        ys.append(np.where(strong, mk, 0.0) / peak)
+        qs.append(np.where(strong, pred, 0.0) / peak)
+        strongs.append(strong)
+    strong_any = np.any(strongs, axis=0)
     window = np.ones(2 * smooth_bins + 1)
-    for c in range(3):
-        n_c = np.convolve(num[:, c], window, mode="same")
-        d_c = np.convolve(den[:, c], window, mode="same")
-        gains[:, c] = np.where(d_c > 0, n_c / np.where(d_c > 0, d_c, 1.0), 1.0)
-    gains = np.where(strong_any, gains, 1.0)
+
+    def smoothed(rel: list[float]) -> NDArray[np.float64]:
+        num, den = sum(y / r for y, r in zip(ys, rel)), sum(qs)
+        out = np.ones_like(num)
+        for c in range(3):
+            n_c = np.convolve(num[:, c], window, mode="same")
+            d_c = np.convolve(den[:, c], window, mode="same")
+            out[:, c] = np.where(d_c > 0, n_c / np.where(d_c > 0, d_c, 1.0), 1.0)
+        return out
+
+    rel = [1.0] * len(ys)  # each shot's brightness relative to its least-squares scale
+    for _ in range(GAIN_ROUNDS if len(ys) > 1 else 0):
+        gains = smoothed(rel)
+        rel = [float(np.sum(y) / max(float(np.sum(np.where(st, gains * q, 0.0))), 1e-300))
+               for y, q, st in zip(ys, qs, strongs)]
+        mean = float(np.exp(np.mean(np.log(rel))))  # only ratios are measured; dark bins stay at 1
+        rel = [r / mean for r in rel]
+    gains = np.where(strong_any, smoothed(rel), 1.0)
     # Normalise so the gains only reshape: the median strong gain is 1.
     med = float(np.median(gains[strong_any])) if np.any(strong_any) else 1.0
     return np.clip(gains / med, *limits)
