@@ -10,7 +10,7 @@ rawpy's ``postprocess`` with the camera's matrix) turns the same simulated captu
 balance). A calibration is made the way ``calibrate --known-lamp A`` makes it — one photo of
 CIE A rendered the same way, the product deciding from the file that it is processed — and
 every lamp's JPEG is estimated with it; beside it, the two-shot calibration ``calibrate A.jpg
---known-lamp A D65.jpg --known-lamp D65`` makes (a bulb and daylight, same camera settings).
+D65.jpg --known-lamp A --known-lamp D65`` makes (a bulb and daylight, same camera settings).
 Two cameras:
 
 * a profiled DSLR (Canon EOS 5D Mark III, its profile from EXIF); reference: its DNG;
@@ -182,7 +182,7 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
              "per side, 1 % sensor noise, the shipped model; each JPEG is 8-bit 4:2:0 quality 90 with a camera's EXIF "
              "(sRGB, fixed white balance), calibrated by one CIE A photo rendered the same way, as `calibrate "
              "--known-lamp A` does, or by a CIE A and a D65 photo (same white balance and settings, each exposed as "
-             f"the camera meters it), as `calibrate A.jpg --known-lamp A D65.jpg --known-lamp D65` does. {seconds:.0f} s on one core. Renderings (`training/evaluation/renderings.py`, "
+             f"the camera meters it), as `calibrate A.jpg D65.jpg --known-lamp A --known-lamp D65` does. {seconds:.0f} s on one core. Renderings (`training/evaluation/renderings.py`, "
              "held out of every fit and prior): `ordinary` — raw exposed as a camera meters it, daylight white "
              "balance, a 3×3 matrix fitted to the CIE observer's gamut-clipped spectral colours, per-channel clipping, "
              "sRGB curve + S-shaped picture style; `luma-curve` — contrast on luminance, gamut compressed towards "
