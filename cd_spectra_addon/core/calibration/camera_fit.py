@@ -85,7 +85,8 @@ def camera_prior(names: Sequence[str]) -> CameraPrior:
     return _prior_of(tuple(sorted(names)))
 
 
-def fit_sensitivities(readout: Readout | Sequence[Readout], response: NDArray[np.float64] | Sequence[NDArray[np.float64]],
+def fit_sensitivities(readout: Readout | Sequence[Readout],
+                      response: NDArray[np.float64] | Sequence[NDArray[np.float64]],
                       spd: NDArray[np.float64] | Sequence[NDArray[np.float64]], prior: CameraPrior
                       ) -> NDArray[np.float64]:
     """The camera's (81, 3) sensitivities, max 1, that best explain ``readout`` for a lamp of
@@ -171,8 +172,9 @@ def _normal_equations(rows: list[NDArray[np.float64]], ys: list[NDArray[np.float
     return gram, rhs
 
 
-def _exposure_ratios(rows: list[NDArray[np.float64]], ys: list[NDArray[np.float64]], sigmas: list[NDArray[np.float64]],
-                     curves: NDArray[np.float64], offsets: NDArray[np.float64], ratio: list[float]) -> list[float]:
+def _exposure_ratios(rows: list[NDArray[np.float64]], ys: list[NDArray[np.float64]],
+                     sigmas: list[NDArray[np.float64]], curves: NDArray[np.float64], offsets: NDArray[np.float64],
+                     ratio: list[float]) -> list[float]:
     """Each later shot's exposure relative to the first's, refitted (weighted least squares)
     to the curves just fitted; the first's stays 1 (it sets the scale of T)."""
     out = [ratio[0]]
