@@ -178,7 +178,7 @@ def test_a_photo_processed_beyond_the_family_gets_a_calibration_that_says_so(tmp
     flagged = {}
     for rendering in ("phone", "ordinary"):
         shot = shooter.jpeg(lamp, CAMERA, dslr.exif, rendering, 99, f"cal-{rendering}")
-        cal, _ = calibrate_like_the_cli(shot, "auto", model, shooter.preset)
+        cal, _ = calibrate_like_the_cli([shot], ("incandescent",), "auto", model, shooter.preset)
         flagged[rendering] = calibration_warning(cal)
         if rendering == "phone":
             photo = shooter.jpeg(known_lamp_spd("D65"), CAMERA, dslr.exif, rendering, 5, "photo")

@@ -153,6 +153,9 @@ def test_calibrations_lists_the_calibration_folder(tmp_path: Path) -> None:
     ["{tmp}/missing.jpg", "--known-lamp", "A", "--name", "x"],
     ["{photo}", "--known-lamp", "A", "--name", "x"],  # not a photo
     ["{photo}", "--reference-spd", "{tmp}/missing.csv", "--name", "x"],
+    ["{photo}", "{photo}", "--known-lamp", "A", "--name", "x"],  # a lamp for each photo
+    ["{photo}", "{photo}", "--known-lamp", "A", "--known-lamp", "sodium", "--name", "x"],
+    ["{photo}", "{tmp}/missing.jpg", "--known-lamp", "A", "--known-lamp", "D65", "--name", "x"],
 ])
 def test_calibrate_refuses_bad_input_and_writes_no_profile(tmp_path: Path, args: list[str]) -> None:
     cal_dir = tmp_path / "calibrations"
@@ -191,6 +194,25 @@ def test_calibrate_then_estimate_with_the_profile(tmp_path: Path, incandescent_p
     (result,) = json.loads(out.read_text())
     assert result["calibration"] == "desk lamp"  # the profile's own name; its file is desk_lamp.json
     assert result["cct_k"] == pytest.approx(2856.0, abs=100.0)
+
+
+@pytest.mark.slow
+def test_calibrate_from_a_bulb_and_a_second_lamp(tmp_path: Path, incandescent_photo: Path) -> None:
+    """Two photos, one lamp each in their order (a known lamp, then a measured SPD): one profile
+    that names both."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from extension_support import render_sample_photo
+
+    cool = render_sample_photo(tmp_path / "cool", 6500.0)
+    env = {"CD_SPECTRA_CALIBRATION_DIR": str(tmp_path / "cal")}
+    proc = run_cli("calibrate", str(incandescent_photo), str(cool), "--known-lamp", "A", "--reference-spd",
+                   str(tmp_path / "cool" / "lamp.csv"), "--name", "two lamps", fake=False, env_extra=env)
+    assert proc.returncode == 0, proc.stderr
+    data = json.loads((tmp_path / "cal" / "two_lamps.json").read_text())
+    assert [s["photo"] for s in data["shots"]] == [str(incandescent_photo), str(cool)]
+    assert data["shots"][0]["reference"] == "Household bulb (CIE A)"
+    assert data["shots"][1]["reference"].endswith("(lamp.csv)")
+    assert np.all(np.isfinite(data["gains"])) and data["unexplained"] < 0.05
 
 
 # --- compare --------------------------------------------------------------------------------------

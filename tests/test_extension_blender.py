@@ -916,22 +916,34 @@ def test_calibrate_saves_and_selects_a_profile(addon: Installed, monkeypatch: py
     monkeypatch.setenv(cal.ENV_DIR, str(tmp_path / "profiles"))
     calls = []
 
-    def calibrate_photo(path, reference_spd, name, preset, camera):
-        calls.append((path, np.asarray(reference_spd), name, preset, camera))
+    def calibrate_photos(shots, name, preset, camera):
+        calls.append(([(str(s.path), np.asarray(s.spd), s.lamp) for s in shots], name, preset, camera))
         gains = np.ones((len(addon.sub("cd_spectra_addon.core.readout.readout").FEATURE_LAMBDA_NM), 3))
-        return cal.save_calibration(cal.Calibration(name, gains, preset, camera, cal.new_metadata(path, "x")))
+        return cal.save_calibration(cal.Calibration(name, gains, preset, camera, cal.new_metadata("x", "x")))
 
-    monkeypatch.setattr(addon.sub("cd_spectra_addon.core.inverse.calibration_shot"), "calibrate_photo", calibrate_photo)
-    photo = tmp_path / "bulb.jpg"
+    monkeypatch.setattr(addon.sub("cd_spectra_addon.core.inverse.calibration_shot"), "calibrate_photos",
+                        calibrate_photos)
+    photo, window = tmp_path / "bulb.jpg", tmp_path / "window.jpg"
     photo.write_bytes(b"jpeg")
+    window.write_bytes(b"jpeg")
     assert bpy.ops.cd_spectra.calibrate(filepath=str(photo), lamp="incandescent", profile_name="my D5100") \
         == {"FINISHED"}
-    (path, reference, name, preset, camera), = calls
+    (shots, name, preset, camera), = calls
     default = addon.sub("cd_spectra_addon.core.scene.capture").DEFAULT_PRESET
-    assert (path, name, preset, camera) == (str(photo), "my D5100", default, "Canon_EOS_5D_Mark_III")
-    assert reference == pytest.approx(addon.sub("cd_spectra_addon.core.spectra.illuminants").known_lamp_spd("incandescent"))
+    known = addon.sub("cd_spectra_addon.core.spectra.illuminants")
+    assert [s[0] for s in shots] == [str(photo)]
+    assert (name, preset, camera) == ("my D5100", default, "Canon_EOS_5D_Mark_III")
+    assert shots[0][1] == pytest.approx(known.known_lamp_spd("incandescent"))
+    assert shots[0][2] == known.KNOWN_LAMPS["incandescent"].label
     settings = bpy.context.scene.cd_spectra
     assert settings.calibration == "my_D5100"  # as the core named the file
+    # A second photo under daylight: both shots, in order, each with its lamp.
+    assert bpy.ops.cd_spectra.calibrate(filepath=str(photo), lamp="incandescent", filepath2=str(window),
+                                        lamp2="daylight-d65", profile_name="two") == {"FINISHED"}
+    shots = calls[-1][0]
+    assert [s[0] for s in shots] == [str(photo), str(window)]
+    assert shots[1][1] == pytest.approx(known.known_lamp_spd("daylight-d65"))
+    assert settings.calibration == "two" and settings.calibration_photo2 == str(window)
 
 
 def test_calibrate_errors_change_nothing(addon: Installed, tmp_path: Path) -> None:

@@ -247,7 +247,8 @@ class CDSPECTRA_PT_calibrate(_SidebarPanel, bpy.types.Panel):
         if settings is None:
             return
         _wrapped(layout, context, "Photograph the CD once under a lamp of known spectrum, with the same "
-                 "camera and set-up: later estimates with this profile are more accurate.")
+                 "camera and set-up: later estimates with this profile are more accurate. A second photo under "
+                 "a lamp of another colour (daylight beside a bulb) measures what the first leaves dark.")
         layout.use_property_split = True
         layout.use_property_decorate = False
         col = layout.column()
@@ -255,11 +256,19 @@ class CDSPECTRA_PT_calibrate(_SidebarPanel, bpy.types.Panel):
         col.prop(settings, "calibration_lamp")
         if settings.calibration_lamp == "FILE":
             col.prop(settings, "calibration_spd_path")
+        col.prop(settings, "calibration_photo2")
+        if settings.calibration_photo2:
+            col.prop(settings, "calibration_lamp2")
+            if settings.calibration_lamp2 == "FILE":
+                col.prop(settings, "calibration_spd_path2")
         col.prop(settings, "calibration_name")
         op = layout.operator("cd_spectra.calibrate", icon="CHECKMARK")
         op.filepath = settings.calibration_photo
         op.lamp = settings.calibration_lamp
         op.spd_path = settings.calibration_spd_path
+        op.filepath2 = settings.calibration_photo2
+        op.lamp2 = settings.calibration_lamp2
+        op.spd_path2 = settings.calibration_spd_path2
         op.profile_name = settings.calibration_name
 
 

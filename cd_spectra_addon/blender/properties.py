@@ -180,6 +180,14 @@ class CDSpectraSettings(bpy.types.PropertyGroup):
     calibration_lamp: EnumProperty(name="Known lamp", items=REFERENCE_LAMPS, default="incandescent")
     calibration_spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH",
                                          description="The lamp's spectrum as measured by a meter")
+    # Optional: a second photo under a known lamp of another colour (daylight beside a bulb).
+    calibration_photo2: StringProperty(
+        name="Second photo", subtype="FILE_PATH",
+        description="Optional: the CD under a second known lamp of another colour (daylight beside a bulb), "
+                    "same camera, settings and set-up — it measures the colours the first lamp leaves dark")
+    calibration_lamp2: EnumProperty(name="Second lamp", items=REFERENCE_LAMPS, default="daylight-d65")
+    calibration_spd_path2: StringProperty(name="Second lamp spectrum", subtype="FILE_PATH",
+                                          description="The second lamp's spectrum as measured by a meter")
     calibration_name: StringProperty(name="Calibration name", default="my-camera",
                                       description="Name to save the calibration profile under")
 

@@ -1,4 +1,5 @@
-"""Calibrate camera + disc + set-up from a photo of a lamp whose spectrum is known."""
+"""Calibrate camera + disc + set-up from a photo of a lamp whose spectrum is known (and optionally a
+second photo under a known lamp of another colour)."""
 
 from __future__ import annotations
 
@@ -28,6 +29,10 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
     lamp: EnumProperty(name="Known lamp", items=[(i, n, d) for i, n, d, _ in REFERENCE_LAMPS],
                        default="incandescent")
     spd_path: StringProperty(name="Lamp spectrum", subtype="FILE_PATH", options={"SKIP_SAVE"})
+    filepath2: StringProperty(name="Second photo", subtype="FILE_PATH", options={"SKIP_SAVE"})
+    lamp2: EnumProperty(name="Second lamp", items=[(i, n, d) for i, n, d, _ in REFERENCE_LAMPS],
+                        default="daylight-d65")
+    spd_path2: StringProperty(name="Second lamp spectrum", subtype="FILE_PATH", options={"SKIP_SAVE"})
     profile_name: StringProperty(name="Calibration name", options={"SKIP_SAVE"})
 
     def invoke(self, context: bpy.types.Context, event: Any) -> set[str]:
@@ -36,22 +41,30 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
         if not self.properties.is_property_set("lamp"):
             self.lamp = settings.calibration_lamp
         self.spd_path = self.spd_path or settings.calibration_spd_path
+        self.filepath2 = self.filepath2 or settings.calibration_photo2
+        if not self.properties.is_property_set("lamp2"):
+            self.lamp2 = settings.calibration_lamp2
+        self.spd_path2 = self.spd_path2 or settings.calibration_spd_path2
         self.profile_name = self.profile_name or settings.calibration_name
         return self.execute(context)
 
-    def _reference_spd(self) -> list[float]:
+    @staticmethod
+    def _reference(lamp: str, spd_path: str) -> tuple[list[float], str]:
+        """(SPD, name for the profile) of a known lamp or a spectrum file."""
         from ..spectra_io import read_reference, standard_lamp
 
-        if self.lamp == "FILE":
-            if not self.spd_path:
+        if lamp == "FILE":
+            if not spd_path:
                 raise ValueError("choose the lamp's spectrum file")
-            _, spd = read_reference(bpy.path.abspath(self.spd_path))
+            _, spd = read_reference(bpy.path.abspath(spd_path))
+            name = Path(bpy.path.abspath(spd_path)).name
         else:
-            spd = standard_lamp(self.lamp)
+            spd = standard_lamp(lamp)
+            name = next(label for key, label, _, _ in REFERENCE_LAMPS if key == lamp)
         valid = state.valid_spd(spd)
         if valid is None:
             raise ValueError("the lamp's spectrum has no usable values between 380 and 780 nm")
-        return valid
+        return valid, name
 
     def execute(self, context: bpy.types.Context) -> set[str]:
         settings = context.scene.cd_spectra
@@ -64,7 +77,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
             self.report({"ERROR"}, "Give the calibration profile a name")
             return {"CANCELLED"}
         try:
-            from ...core.inverse.calibration_shot import calibrate_photo
+            from ...core.inverse.calibration_shot import LampPhoto, calibrate_photos
         except ImportError as exc:
             self.report({"ERROR"}, f"This build of CD Spectra cannot calibrate ({exc})")
             return {"CANCELLED"}
@@ -73,9 +86,15 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
         with progress(context) as update:
             try:
                 update(0.0, "calibrating")
-                reference = np.asarray(self._reference_spd(), dtype=np.float64)
-                profile = calibrate_photo(photo, reference, name, settings.preset or DEFAULT_PRESET,
-                                          state.camera_choice(settings.camera))
+                shots = []
+                second = bpy.path.abspath(self.filepath2 or settings.calibration_photo2)
+                for path, lamp, spd_path in ((photo, self.lamp, self.spd_path),
+                                             (second, self.lamp2, self.spd_path2)):
+                    if path:  # the second photo is optional
+                        spd, lamp_name = self._reference(lamp, spd_path)
+                        shots.append(LampPhoto(path, np.asarray(spd, dtype=np.float64), lamp_name))
+                profile = calibrate_photos(shots, name, settings.preset or DEFAULT_PRESET,
+                                           state.camera_choice(settings.camera))
             except (CDSpectraError, ValueError, OSError) as exc:
                 self.report({"ERROR"}, f"Calibration failed: {exc}")
                 return {"CANCELLED"}
@@ -84,6 +103,7 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
                             f"{exc}); nothing was saved. This is a bug: please report it with the photo")
                 return {"CANCELLED"}
         settings.calibration_photo = self.filepath or settings.calibration_photo
+        settings.calibration_photo2 = self.filepath2 or settings.calibration_photo2
         settings.calibration_name = name
         saved_as = Path(profile).stem  # the profile's name is its file's (the core makes names file-safe)
         if saved_as in calibration_names():

@@ -5,7 +5,8 @@ camera unit's channel gains and a few nm of shift in its curves all change the p
 smooth factor per λ₁ bin and channel. Photographing a lamp whose SPD is known — a household
 incandescent or halogen bulb (≈ CIE A, Planck at 2856 K), daylight, or any SPD a meter measured
 — measures that factor directly: gain = measured profile / profile the model predicts for the
-known SPD. Stored as a small JSON profile and divided out of later photos' profiles.
+known SPD. Stored as a small JSON profile and divided out of later photos' profiles. A second
+shot under a lamp of another colour (a bulb and daylight) measures the bins the first leaves dark.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ PIPELINE_GAIN_LIMITS = (0.02, 50.0)
 PIPELINE_MIN_SIGNAL = 0.001
 PIPELINE_SMOOTH_BINS = 1
 SMOOTH_BINS = 2  # gains are smoothed over ±2 bins (±10 nm of λ₁)
+GAIN_ROUNDS = 20  # several shots: alternations between the gains and each shot's brightness
 # How well a calibration explains its own photo: the weighted RMS of (measured − predicted) /
 # peak over the bins, the known lamp scaled to the photo, before any gains. Above this the
 # model of the camera (its processing, its sensitivities) cannot undo what the photo shows and
@@ -78,41 +80,79 @@ class Calibration:
 
 
 
+def _by_shot(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """(S, NB, 3), (S, NB), (S, NB, 3): one shot's (NB, 3) arrays as a stack of one."""
+    m, v, p = np.asarray(measured, np.float64), np.asarray(valid, bool), np.asarray(predicted, np.float64)
+    return (m[None], v[None], p[None]) if m.ndim == 2 else (m, v, p)
+
+
 def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted: NDArray[np.float64],
               min_signal: float = MIN_SIGNAL, limits: tuple[float, float] = GAIN_LIMITS,
               smooth_bins: int = SMOOTH_BINS) -> NDArray[np.float64]:
     """Per-bin, per-channel gains measured / predicted (predicted scaled to the photo first),
-    smoothed, limited, and 1 where the known lamp gives too little signal to tell."""
-    ok = valid[:, None] & (predicted > 0)
-    scale = float(np.sum(measured[ok] * predicted[ok]) / max(np.sum(predicted[ok] ** 2), 1e-300))
-    if scale <= 0:
-        raise CDSpectraError("the calibration photo shows no light where the known lamp should")
-    pred = predicted * scale
-    strong = ok & (pred > min_signal * pred.max())
-    raw = np.where(strong, measured / np.where(strong, pred, 1.0), 1.0)
-    weight = strong.astype(float) * pred
-    gains = np.ones_like(raw)
-    for c in range(3):
-        num = np.convolve(raw[:, c] * weight[:, c], np.ones(2 * smooth_bins + 1), mode="same")
-        den = np.convolve(weight[:, c], np.ones(2 * smooth_bins + 1), mode="same")
-        gains[:, c] = np.where(den > 0, num / np.where(den > 0, den, 1.0), 1.0)
-    gains = np.where(strong, gains, 1.0)
+    smoothed, limited, and 1 where the known lamp gives too little signal to tell.
+
+    Several shots (arrays (S, NB, 3), ``valid`` (S, NB): lamps of different colours, same camera
+    and set-up): a bin's gain is Σ measured / Σ predicted over the shots (and ±``smooth_bins``)
+    where each is strong, each shot relative to its peak — so the bins one lamp leaves dark are
+    measured by another, and a shot's exposure does not decide its weight. Each shot's
+    brightness is refitted to the gains (they tilt a shot's own least-squares scale), so that
+    bins measured by different lamps are on one scale. One shot: measured / predicted, as ever."""
+    m, v, p = _by_shot(measured, valid, predicted)
+    ys, qs, strongs = [], [], []
+    for mk, vk, pk in zip(m, v, p):
+        ok = vk[:, None] & (pk > 0)
+        scale = float(np.sum(mk[ok] * pk[ok]) / max(np.sum(pk[ok] ** 2), 1e-300))
+        if scale <= 0:
+            raise CDSpectraError("the calibration photo shows no light where the known lamp should")
+        pred = pk * scale
+        peak = float(pred.max())
+        strong = ok & (pred > min_signal * peak)
+        ys.append(np.where(strong, mk, 0.0) / peak)
+        qs.append(np.where(strong, pred, 0.0) / peak)
+        strongs.append(strong)
+    strong_any = np.any(strongs, axis=0)
+    window = np.ones(2 * smooth_bins + 1)
+
+    def smoothed(rel: list[float]) -> NDArray[np.float64]:
+        num, den = sum(y / r for y, r in zip(ys, rel)), sum(qs)
+        out = np.ones_like(num)
+        for c in range(3):
+            n_c = np.convolve(num[:, c], window, mode="same")
+            d_c = np.convolve(den[:, c], window, mode="same")
+            out[:, c] = np.where(d_c > 0, n_c / np.where(d_c > 0, d_c, 1.0), 1.0)
+        return out
+
+    rel = [1.0] * len(ys)  # each shot's brightness relative to its least-squares scale
+    for _ in range(GAIN_ROUNDS if len(ys) > 1 else 0):
+        gains = smoothed(rel)
+        rel = [float(np.sum(y) / max(float(np.sum(np.where(st, gains * q, 0.0))), 1e-300))
+               for y, q, st in zip(ys, qs, strongs)]
+        mean = float(np.exp(np.mean(np.log(rel))))  # only ratios are measured; dark bins stay at 1
+        rel = [r / mean for r in rel]
+    gains = np.where(strong_any, smoothed(rel), 1.0)
     # Normalise so the gains only reshape: the median strong gain is 1.
-    med = float(np.median(gains[strong])) if np.any(strong) else 1.0
+    med = float(np.median(gains[strong_any])) if np.any(strong_any) else 1.0
     return np.clip(gains / med, *limits)
 
 
 def unexplained_share(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted: NDArray[np.float64]) -> float:
     """What a calibration leaves unexplained in its own photo: the signal-weighted RMS of
-    measured − s·predicted over the valid bins, relative to the peak (s: least squares)."""
-    ok = valid[:, None] & np.isfinite(measured) & np.isfinite(predicted)
-    y, p = measured[ok], predicted[ok]
-    if y.size == 0 or not np.any(p > 0):
-        return 1.0
-    s = float(y @ p) / max(float(p @ p), 1e-300)
-    peak = float(np.max(np.abs(y))) or 1.0
-    w = np.abs(p) / max(float(np.sum(np.abs(p))), 1e-300)
-    return float(np.sqrt(np.sum(w * (y - s * p) ** 2))) / peak
+    measured − s·predicted over the valid bins, relative to the peak (s: least squares).
+    Several shots (as in :func:`fit_gains`): each with its own s and peak, each weighing alike."""
+    m, v, p = _by_shot(measured, valid, predicted)
+    total = 0.0
+    for mk, vk, pk in zip(m, v, p):
+        ok = vk[:, None] & np.isfinite(mk) & np.isfinite(pk)
+        y, q = mk[ok], pk[ok]
+        if y.size == 0 or not np.any(q > 0):
+            return 1.0
+        s = float(y @ q) / max(float(q @ q), 1e-300)
+        peak = float(np.max(np.abs(y))) or 1.0
+        w = np.abs(q) / max(float(np.sum(np.abs(q))), 1e-300)
+        total += float(np.sum(w * ((y - s * q) / peak) ** 2)) / m.shape[0]
+    return float(np.sqrt(total))
 
 
 def calibration_warning(calibration: Calibration) -> str | None:
