@@ -32,7 +32,8 @@ from ..scene.capture import Disc
 from ..scene.kernel import camera_rays
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, ray_diffraction
 
-__all__ = ["Ridges", "ridge_pixels", "line_offsets_px", "line_fit", "line_agreement", "keeps_lines", "LineAgreement", "LineFit", "LINE_PX"]
+__all__ = ["Ridges", "ridge_pixels", "line_offsets_px", "line_fit", "line_agreement", "keeps_lines", "LineAgreement", "LineFit", "LINE_PX",
+           "on_curve"]
 
 LINE_SIDE = 600  # the lines are found on an image of about this size (a 24 MP photo: 10 × 10 blocks)
 OPENING_SHARE = 0.025  # the top-hat's square, as a share of the image's long side (15 px at LINE_SIDE)
@@ -175,10 +176,16 @@ def line_agreement(ridges: Ridges, rel: RelativePose, size: tuple[int, int], foc
     return LineAgreement(share, float(np.median(off[inlier])), orders, int(keep.sum()))
 
 
+def on_curve(share: float, median_px: float) -> bool:
+    """Most of the photo's lines on the tracks lie on a capture's curve: that capture shows them
+    as a disc's diffraction orders (PINNED_SHARE, PINNED_MEDIAN_PX)."""
+    return share >= PINNED_SHARE and median_px <= PINNED_MEDIAN_PX
+
+
 def keeps_lines(ridges: Ridges, rel: RelativePose, size: tuple[int, int], focal_px: float, disc: Disc) -> bool:
     """The capture ``rel`` still has the photo's lines on its curve (as a pinning fit must)."""
     agreement = line_agreement(ridges, rel, size, focal_px, disc)
-    return agreement.share >= PINNED_SHARE and agreement.median_px <= PINNED_MEDIAN_PX
+    return on_curve(agreement.share, agreement.median_px)
 
 
 @dataclass(frozen=True)
@@ -194,7 +201,7 @@ class LineFit:
     def pins_geometry(self) -> bool:
         """Most of the lines on the tracks lie on the curve: the photo is one of thin lines and
         their position, not the self-consistency (flat a few px away), pins the capture."""
-        return self.on_line >= PINNED_SHARE and self.median_px <= PINNED_MEDIAN_PX
+        return on_curve(self.on_line, self.median_px)
 
 
 def _colour_terms(ridges: Ridges, colours: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
