@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -152,6 +152,7 @@ def test_a_calibration_that_cannot_explain_its_photo_says_so():
 @settings(max_examples=40, deadline=None)
 @given(arrays(np.float64, (N_FEATURES, 3), elements=st.floats(0.0, 10.0)),
        arrays(np.float64, (N_FEATURES, 3), elements=st.floats(-1.0, 1.0)), st.floats(0.01, 100.0))
+@example(np.full((N_FEATURES, 3), 2.5e-299), np.zeros((N_FEATURES, 3)), 1.0)  # q·q underflowed: share 1, not 0
 def test_unexplained_share_is_zero_for_a_perfect_fit_and_bounded(predicted, wobble, scale):
     valid = np.ones(N_FEATURES, bool)
     if not np.any(predicted > 0):

@@ -148,6 +148,7 @@ def unexplained_share(measured: NDArray[np.float64], valid: NDArray[np.bool_], p
         y, q = mk[ok], pk[ok]
         if y.size == 0 or not np.any(q > 0):
             return 1.0
+        q = q / float(np.max(np.abs(q)))  # scale-free, and q·q cannot underflow (q ~ 1e-299: s was 0)
         s = float(y @ q) / max(float(q @ q), 1e-300)
         peak = float(np.max(np.abs(y))) or 1.0
         w = np.abs(q) / max(float(np.sum(np.abs(q))), 1e-300)
