@@ -248,7 +248,7 @@ def test_in_camera_photos_join_the_dataset_without_disturbing_the_rest():
 
     def run(share: float) -> dict:
         deg = dataset.Degradation(in_camera=share, in_camera_setups=3, generic_probability=0.5)
-        return dataset._run_cube(dataset._CubeJob(spec, 16, 3, train_cams, deg, "numpy", None, 1))
+        return dataset.run_cube(dataset.CubeJob(spec, 16, 3, train_cams, deg, "numpy", None, 1))
 
     plain, mixed = run(0.0), run(0.5)
     assert plain["inputs"].shape[0] == mixed["inputs"].shape[0] == 16  # nothing refused: rows align

@@ -42,9 +42,9 @@ def main(argv: list[str] | None = None) -> int:
         basis_cube(spec.scene(), "cycles", cache_dir=Path(tmp))
         cube_s = time.perf_counter() - t0
     load.append(os.getloadavg()[0])
-    job = ds._CubeJob(spec, args.photos, 0, ds.camera_split()[0], ds.Degradation(), "cycles", None, 3)
+    job = ds.CubeJob(spec, args.photos, 0, ds.camera_split()[0], ds.Degradation(), "cycles", None, 3)
     t0 = time.perf_counter()
-    part = ds._run_cube(job)
+    part = ds.run_cube(job)
     photo_s = (time.perf_counter() - t0) / max(1, len(part["inputs"]))
     load.append(os.getloadavg()[0])
     rows = []

@@ -55,7 +55,8 @@ from training.learning.spd_prior import gaussian_prior, sample_spds
 DATA_DIR = REPO / "data" / "dataset"
 CALIBRATION_LAMP = known_lamp_spd("incandescent")  # what users are told to calibrate with: a household bulb
 
-__all__ = ["CubeSpec", "CUBE_SETS", "camera_split", "generic_sensitivities", "build_dataset", "Degradation"]
+__all__ = ["CubeSpec", "CUBE_SETS", "camera_split", "generic_sensitivities", "build_dataset", "Degradation", "CubeJob",
+           "run_cube"]
 
 
 @dataclass(frozen=True)
@@ -269,7 +270,7 @@ class _Variant:
 
 
 @dataclass
-class _CubeJob:
+class CubeJob:
     spec: CubeSpec
     n_samples: int
     seed: int
@@ -373,7 +374,7 @@ def _new_in_camera_setup(rng: np.random.Generator, cube: NDArray[np.float32], me
     return setup
 
 
-def _run_cube(job: _CubeJob) -> dict[str, NDArray]:
+def run_cube(job: CubeJob) -> dict[str, NDArray]:
     rng = np.random.default_rng(job.seed)
     spec = job.spec
     scene = spec.scene()
@@ -485,14 +486,14 @@ def build_dataset(cube_set: str = SHIPPED_SET, n_per_cube: int = 2500, seed: int
         basis_cube(spec.scene(), engine, samples, **({"cache_dir": cache_dir} if cache_dir else {}),
                    log=log)
     gaussian_prior()  # computed once here; forked workers inherit the cached value
-    jobs = [_CubeJob(spec, n_per_cube, seed * 1000 + i, train_cams, deg, engine, samples, n_fits,
+    jobs = [CubeJob(spec, n_per_cube, seed * 1000 + i, train_cams, deg, engine, samples, n_fits,
                      str(cache_dir) if cache_dir else None) for i, spec in enumerate(specs)]
     start = time.perf_counter()
     if workers > 1:
         with get_context("fork").Pool(workers) as pool:
-            parts = pool.map(_run_cube, jobs, chunksize=1)
+            parts = pool.map(run_cube, jobs, chunksize=1)
     else:
-        parts = [_run_cube(job) for job in jobs]
+        parts = [run_cube(job) for job in jobs]
     merged = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     log(f"{len(merged['inputs'])} samples kept of {len(specs) * n_per_cube} photos in {time.perf_counter() - start:.0f} s")
     path.parent.mkdir(parents=True, exist_ok=True)
