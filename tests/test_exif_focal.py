@@ -44,6 +44,7 @@ def test_both_focal_lengths_are_offered_only_where_they_disagree(plane, equivale
         assert [s for _, s in options] == ["exif", "exif-35mm"]
 
 
+@pytest.mark.slow  # two estimates with two pose fits each: ~5 s
 @pytest.mark.parametrize("edit, source", [("resized", "exif-35mm, resized"), ("cropped", "exif, cropped")])
 def test_a_resized_or_cropped_photo_is_read_with_the_focal_length_that_explains_it(tmp_path, edit, source):
     with Image.open(SAMPLE) as im:
