@@ -156,6 +156,7 @@ def test_calibrations_lists_the_calibration_folder(tmp_path: Path) -> None:
     ["{photo}", "{photo}", "--known-lamp", "A", "--name", "x"],  # a lamp for each photo
     ["{photo}", "{photo}", "--known-lamp", "A", "--known-lamp", "sodium", "--name", "x"],
     ["{photo}", "{tmp}/missing.jpg", "--known-lamp", "A", "--known-lamp", "D65", "--name", "x"],
+    ["{photo}", "--known-lamp", "A", "{photo}", "--bogus", "--known-lamp", "D65", "--name", "x"],
 ])
 def test_calibrate_refuses_bad_input_and_writes_no_profile(tmp_path: Path, args: list[str]) -> None:
     cal_dir = tmp_path / "calibrations"
@@ -163,6 +164,33 @@ def test_calibrate_refuses_bad_input_and_writes_no_profile(tmp_path: Path, args:
     filled = [a.format(tmp=tmp_path, photo=photo) for a in args]
     proc = run_cli("calibrate", *filled, fake=False, env_extra={"CD_SPECTRA_CALIBRATION_DIR": str(cal_dir)})
     _assert_one_error(proc, tmp_path, ["photo.jpg"])
+
+
+@pytest.mark.parametrize("argv, photos, lamps", [
+    (["calibrate", "bulb.jpg", "window.jpg", "--known-lamp", "A", "--known-lamp", "D65", "--name", "x"],
+     ["bulb.jpg", "window.jpg"], [("known", "A"), ("known", "D65")]),
+    (["calibrate", "bulb.jpg", "--known-lamp", "A", "window.jpg", "--reference-spd", "sky.csv", "--name", "x"],
+     ["bulb.jpg", "window.jpg"], [("known", "A"), ("file", Path("sky.csv"))]),
+    (["calibrate", "--name", "x", "a.jpg", "--known-lamp", "A", "b.jpg", "--known-lamp", "D65", "c.jpg",
+      "--known-lamp", "F2"], ["a.jpg", "b.jpg", "c.jpg"], [("known", "A"), ("known", "D65"), ("known", "F2")]),
+])
+def test_calibrate_pairs_each_photo_with_its_lamp_as_typed(argv: list[str], photos: list[str], lamps: list) -> None:
+    """Each photo followed by its lamp (as people type it) pairs the same as photos-then-lamps."""
+    from cd_spectra_addon.cli import parse
+
+    args = parse(argv)
+    assert [str(p) for p in args.photos] == photos and args.lamps == lamps
+
+
+def test_estimate_takes_photos_between_its_options() -> None:
+    from cd_spectra_addon.cli import UsageError, parse
+
+    args = parse(["estimate", "a.jpg", "--preset", "cd-default", "b.jpg", "--preset", "tripod-oblique", "--joint"])
+    assert [str(p) for p in args.photos] == ["a.jpg", "b.jpg"] and args.joint
+    with pytest.raises(UsageError, match="unrecognized arguments: --nope"):
+        parse(["estimate", "a.jpg", "--nope"])
+    with pytest.raises(UsageError, match="unrecognized arguments: b.jpg"):
+        parse(["presets", "b.jpg"])
 
 
 @pytest.fixture(scope="module")

@@ -2,7 +2,8 @@
 
 One module per command, each with ``NAME``, ``HELP``, ``add_arguments(parser)`` and
 ``run(args, out) -> exit status``; :data:`COMMAND_NAMES` lists them (a new command is one name
-there).
+there). A command whose photos may come between its options (``calibrate bulb.jpg --known-lamp A
+window.jpg --known-lamp D65``, as people type it) names that list in ``INTERMIXED = "photos"``.
 Bad input exits with status 2 and a single ``error: ...`` line on stderr, and writes nothing; an
 internal error (a bug) exits with status 3 and one line saying so, never a traceback.
 """
@@ -34,8 +35,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def parse(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    """The arguments of one command line. argparse takes a positional list in one run (the
+    photos, then the options); a command's photos given later, between its options, are added
+    to the list in the order given. Anything else left over is refused as argparse would."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    command = next(c for c in COMMANDS if c.NAME == args.command)
+    listed = getattr(command, "INTERMIXED", None)
+    if extra and listed and not any(token.startswith("-") and token != "-" for token in extra):
+        setattr(args, listed, [*getattr(args, listed), *(command.INTERMIXED_TYPE(t) for t in extra)])
+    elif extra:
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
+
+
 def run(argv: Sequence[str] | None = None, *, out: Callable[[str], None] = print) -> int:
-    args = build_parser().parse_args(argv)
+    args = parse(argv)
     command = next(c for c in COMMANDS if c.NAME == args.command)
     return int(command.run(args, out))
 
@@ -54,4 +70,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
-__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "UsageError", "build_parser", "main", "run"]
+__all__ = ["COMMANDS", "COMMAND_NAMES", "DEFAULT_PRESET", "EXIT_BAD_INPUT", "EXIT_INTERNAL", "UsageError", "build_parser", "main", "parse", "run"]

@@ -3,11 +3,12 @@
 The photos are taken like the later ones (same camera, disc and set-up) under a known lamp
 (``--known-lamp``) or one whose SPD was measured (``--reference-spd FILE``): one photo, or
 several under lamps of different colours — a bulb and daylight — whose second colour measures
-the camera where the first cannot. The photos come first, then one lamp option per photo, in
-the same order:
+the camera where the first cannot. One lamp option per photo, the n-th for the n-th photo,
+either after all the photos or each after its photo:
 
     calibrate bulb.jpg --known-lamp A --name mine
     calibrate bulb.jpg window.jpg --known-lamp A --known-lamp D65 --name mine
+    calibrate bulb.jpg --known-lamp A window.jpg --known-lamp D65 --name mine
 
 The profile is written to the calibration folder (``$CD_SPECTRA_CALIBRATION_DIR`` or the user's
 config folder) under ``--name``; ``estimate --calibration NAME`` then uses it. The same job as
@@ -27,6 +28,7 @@ from .common import UsageError
 
 NAME = "calibrate"
 HELP = "make a calibration profile from photos of known lamps"
+INTERMIXED, INTERMIXED_TYPE = "photos", Path  # a photo may follow the lamp option of the one before
 
 
 class _Lamp(argparse.Action):

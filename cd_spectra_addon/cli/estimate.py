@@ -37,6 +37,7 @@ from .common import STDOUT, UsageError, atomic_path, check_output, progress, qui
 
 NAME = "estimate"
 HELP = "estimate the lamp's SPD from photos of a CD"
+INTERMIXED, INTERMIXED_TYPE = "photos", Path  # `a.jpg --preset p b.jpg --preset q --joint` pairs as typed
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
