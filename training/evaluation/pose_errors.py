@@ -206,8 +206,11 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
                "confidence": float(est.confidence), "warnings": list(est.warnings), "fit_s": fit_s,
                **_pose_report(fit, scene)}
         if truth:
-            true = estimate_image(loaded, preset=scene.preset, model=model, fit=PoseFit.of_scene(scene))
-            row["true_pose_mae"] = float(colour_core.compare_spds(true.spd, lamp.spd)["mae_400_700"])
+            try:  # the true capture may itself hold too little first order to read (a refusal): NaN
+                true = estimate_image(loaded, preset=scene.preset, model=model, fit=PoseFit.of_scene(scene))
+                row["true_pose_mae"] = float(colour_core.compare_spds(true.spd, lamp.spd)["mae_400_700"])
+            except CDSpectraError:
+                row["true_pose_mae"] = math.nan
         rows.append(row)
     return {"case": case.name, "rows": rows, "refusals": refusals, "seconds": float(np.mean(seconds)),
             "captures": len(captures)}
