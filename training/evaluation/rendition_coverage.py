@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.inverse.estimate import estimate_image
-from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.rendition.result import DEFAULT_SAMPLES, TOO_WIDE, rendition
 from cd_spectra_addon.core.rendition.uncertainty import CORRELATION_NM, STD_SCALE
 from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, load_preset
@@ -67,7 +66,7 @@ def _estimates(photos: Photos, cond: Condition, spds: list[np.ndarray], model: A
     out = []
     for i, spd in enumerate(spds):
         path = photos.write(cond, spd, seed=seed * 100_003 + i)
-        image = load_for_estimate(path, preset)
+        image = photos.read(cond, path)
         est = estimate_image(image, preset=preset, camera=cond.camera, model=model)
         out.append({"spd": est.spd, "std": est.spd_std, "truth": spd, "rendition_ms": est.timing_ms["rendition"]})
         if (i + 1) % 25 == 0:

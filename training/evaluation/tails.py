@@ -5,7 +5,7 @@ items 1 and 2): bench/tails.md.
 
 Each photo is rendered once, written as an 8-bit JPEG (1 % noise, default camera, cd-default at
 the real-lamp size of ``make eval``), loaded and read once through the product's stages
-(``load_for_estimate`` → ``read_photo``), and its spectrum stage is then run four times: physics
+(``Photos.read`` → ``read_photo``), and its spectrum stage is then run four times: physics
 + prior and the shipped model, each *before* (the model's metadata as at ``--baseline-ref``: its
 band weights, no ``tails``) and *after* (as in the working tree). First on held-out synthetic
 spectra (the prior's physical families, a seed no choice used), then on the real lamps of
@@ -31,7 +31,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PRIOR
 from cd_spectra_addon.core.inverse.stages import read_photo, spectrum
 from cd_spectra_addon.core.errors import CDSpectraError
@@ -87,9 +86,10 @@ def run(lamps: list[Lamp], models: dict[str, SpectralModel], engine: str, size: 
     with tempfile.TemporaryDirectory() as tmp:
         photos = Photos(tmp, engine)
         for i, lamp in enumerate(lamps):
-            path = photos.write(Condition("nominal", spec), lamp.spd, seed=i)
+            cond = Condition("nominal", spec)
+            path = photos.write(cond, lamp.spd, seed=i)
             try:
-                reading = read_photo(load_for_estimate(path, preset), preset, camera)
+                reading = read_photo(photos.read(cond, path), preset, camera)
             except CDSpectraError as exc:
                 log(f"  {lamp.name}: refused ({exc})")
                 continue
