@@ -283,7 +283,8 @@ def pose_photo(
     if fit is None:
         linear = rgb - rough_offset(rgb, excluded)
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
-                       saturated=excluded, strategies=strategies, escalations=escalations)
+                       saturated=excluded, strategies=strategies, escalations=escalations,
+                       size_from_colour=not generic_camera)
         options = focal_px_options(image) if source.startswith("exif") else []
         if len(options) > 1:
             # resized or cropped after it was taken: the focal length that explains the photo
@@ -291,7 +292,7 @@ def pose_photo(
                 if other == focal_px:
                     continue
                 alt = fit_pose(linear, preset, other, sensitivities=camera.sensitivities, saturated=excluded,
-                               strategies=strategies, escalations=escalations)
+                               strategies=strategies, escalations=escalations, size_from_colour=not generic_camera)
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source
             source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]

@@ -283,11 +283,14 @@ class _Fitted:
 
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              sensitivities: NDArray[np.float64] | None = None, saturated: NDArray[np.bool_] | None = None,
-             strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS) -> PoseFit:
+             strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS,
+             size_from_colour: bool = True) -> PoseFit:
     """Disc pose, lamp position and lamp size of any capture from a linear photo (see the module
     docstring). ``saturated`` pixels (clipped, invalid) are left out; with the camera's
     ``sensitivities`` every λ₁ must also have the camera's colour there. ``strategies`` and
-    ``escalations`` name the start strategies (:data:`.starts.STRATEGIES`) to use."""
+    ``escalations`` name the start strategies (:data:`.starts.STRATEGIES`) to use.
+    ``size_from_colour``: judge the lamp's size on the colour blur (:func:`_sized`); only where
+    ``sensitivities`` are the camera's own (not the generic profile's)."""
     clock = _Clock()
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape
@@ -416,7 +419,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         evals += p.evaluations
         finished.append(_Fitted(cost, Start(f.start.strategy, f.capture, held=f.start.held), x))
     best = min(finished, key=lambda fit: fit.cost)
-    if sensitivities is not None and not best.start.held:
+    if size_from_colour and sensitivities is not None and not best.start.held:
         best = _sized(best, lambda c: problem(c, "fine", STAGES[1]), lambda c: problem(c, "fine", SIZE_STAGE))
     clock.lap("fine")
     rel = best.capture
@@ -445,7 +448,9 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
 # grid is built for it), so a photo's lamp size was never fitted: cd-default under a lamp of σ
 # 0.01 read with σ 0.003, residual 0.0022 against 0.0008 at the true size, MAE 400–700 0.18
 # against 0.010 (bench/pose_errors.md, "lamp size"). These sizes are tried on the fine level's
-# cost; LM then refines the best from there.
+# cost; LM then refines the best from there. Not with the generic camera profile: its colours
+# are not the camera's, and their mismatch read as a blur (make eval's generic-profile row
+# 0.050 -> 0.127 with it).
 # A size is taken only where it leaves at most SIZE_GAIN of what the fitted one left unexplained:
 # at the presets' own size the cost barely moves with σ (a nominal Planck photo: residual 0.00032
 # at 0.003, 0.00031 at 0.0018), and taking the smaller size read a nominal synthetic LED 0.045
