@@ -13,8 +13,8 @@ import pytest
 
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.scene.capture import Scene, load_preset
-from cd_spectra_addon.core.inverse.load import (DISC_MIN_PX, DISC_TARGET_PX, PREVIEW_SIDE, disc_half_extent,
-                                               load_for_estimate)
+from cd_spectra_addon.core.inverse.load import (DISC_MIN_PX, DISC_READ_PX, DISC_TARGET_PX, PREVIEW_SIDE,
+                                               disc_half_extent, load_for_estimate, reduction)
 from cd_spectra_addon.core.inverse.estimate import estimate_photo
 from cd_spectra_addon.core.photo.images import load_photo
 from training.simulation import photo
@@ -101,3 +101,34 @@ def test_the_window_reaches_a_disc_placed_off_the_frame_centre(tmp_path):
     image = load_for_estimate(path, preset)
     lum = image.rgb.sum(axis=2)
     assert lum.max() > 0.5 * preview.rgb.sum(axis=2).max()
+
+
+@pytest.mark.parametrize("fmt", ["png", "jpg"])
+def test_a_large_disc_is_read_reduced_to_whole_preview_pixels(tmp_path, fmt):
+    """A disc at least 2 × DISC_READ_PX wide in the preview is read at the integer reduction that
+    leaves it at least DISC_READ_PX wide: here a 384 × 256 render upsampled 4× to 1536 × 1024 is
+    read back at its rendered size (a JPEG foresees it from its header, a PNG reduces its decode)."""
+    preset = load_preset("cd-default").with_image_size(384, 256)
+    scene = Scene(preset)
+    img, _ = photo.expose(photo.linear_photo(render_cube(scene, supersample=1), np.ones(81),
+                                             load_camera(DEFAULT_CAMERA)), 1.0)
+    path = tmp_path / f"big.{fmt}"
+    cam = preset.camera
+    photo.write_photo(path, photo.upsample(img, 4), fmt, photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm,
+                                                                         1536, DEFAULT_CAMERA))
+    preview = load_photo(path, max_side=PREVIEW_SIDE)
+    _, _, diameter = disc_half_extent(preview, preset)
+    assert diameter >= 2 * DISC_READ_PX and reduction(diameter) == 2
+    image = load_for_estimate(path, preset)
+    assert image.scale == 2 * preview.scale == 4.0 and image.rgb.shape[:2] == (256, 384)
+    assert diameter / 2 >= DISC_READ_PX
+    # whole preview pixels, averaged in linear light: the same light per area as the preview
+    assert image.rgb.sum() * 4 == pytest.approx(preview.rgb.sum(), rel=1e-3 if fmt == "png" else 2e-2)
+
+
+def test_reduction_keeps_the_disc_at_least_the_read_size():
+    assert reduction(DISC_READ_PX * 2 - 1) == 1 and reduction(DISC_READ_PX * 2) == 2
+    for diameter in (700.0, 1000.0, 1300.0, 2500.0):
+        k = reduction(diameter)
+        assert k & (k - 1) == 0  # a power of two, as the JPEG drafts are
+        assert diameter / k >= DISC_READ_PX > diameter / (2 * k)
