@@ -234,3 +234,10 @@ def test_the_frames_of_a_gif_given_together_share_one_lens(rendered, tmp_path):
     lenses = series_lenses(paths, [preset] * 3)
     assert set(lenses) == {str(gif)} and lenses[str(gif)] == pytest.approx(focal, rel=0.03)
     assert series_lenses(paths[:1], [preset]) == {} and series_lenses([gif], [preset]) == {}
+
+
+def test_work_images_are_the_box_nearest_their_size_by_ratio():
+    """A 375 px photo (a 24 MP frame read at 1/16) gets a 188 px work image for a 256 px target,
+    not itself: the plain rounded quotient kept it whole, 2.25× the pixels of a 750 px read's."""
+    from cd_spectra_addon.core.photo.resample import box_factor
+    assert [box_factor(s, 256) for s in (100, 300, 362, 363, 375, 500, 750, 1000)] == [1, 1, 1, 2, 2, 2, 3, 4]

@@ -11,7 +11,16 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["box_downsample", "channel_sum"]
+__all__ = ["box_factor", "box_downsample", "channel_sum"]
+
+
+def box_factor(side: int, target: int) -> int:
+    """The integer box that brings ``side`` nearest to ``target`` by ratio (≥ 1). Rounding the
+    plain quotient left a 375 px photo (a 24 MP frame read at 1/16) whole for a 256 px work image,
+    2.25× the pixels of its 750 px read's: the outline and the starts took twice as long."""
+    q = side / target
+    k = max(1, int(q))
+    return k + 1 if q * q > k * (k + 1) else k  # nearer k + 1 than k by ratio: q/k > (k + 1)/q
 
 
 def box_downsample(image: NDArray[np.floating], factor: int) -> NDArray[np.float64]:

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..numerics.least_squares import levenberg_marquardt
-from ..photo.resample import box_downsample, channel_sum
+from ..photo.resample import box_downsample, box_factor, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, diffraction_along, project
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
@@ -299,7 +299,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
         rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
-    factor = max(1, int(round(max(height, width) / COARSE_SIDE)))
+    factor = box_factor(max(height, width), COARSE_SIDE)
     coarse = _Level.of(rgb, saturated, factor, focal_px)
     fine = _Level.of(rgb, saturated, 1, focal_px)
     clock.lap("levels")
@@ -362,6 +362,9 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
             ctx.found.extend(new)
         scored = []
         for s in new:
+            if not escalating and any(math.isfinite(seen_cost) and _same_capture(s.capture, seen, size, focal_px)
+                                      for seen, seen_cost in visited):
+                continue  # where a fit already ended: LM from here would find what it found (nor is it scored)
             p = problem(s.pose)
             scored.append((p.cost_at(s.capture), s))
             evals += p.evaluations

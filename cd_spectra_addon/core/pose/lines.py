@@ -27,7 +27,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from ..numerics.least_squares import cauchy, levenberg_marquardt
-from ..photo.resample import box_downsample, channel_sum
+from ..photo.resample import box_downsample, box_factor, channel_sum
 from ..scene.capture import Disc
 from ..scene.kernel import camera_rays
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, ray_diffraction
@@ -98,7 +98,7 @@ def ridge_pixels(rgb: NDArray[np.floating], focal_px: float) -> Ridges | None:
     Clipped pixels are kept: a line's position survives clipping. The noise level is the
     top-hat's median absolute value (most of a photo is flat)."""
     height, width = rgb.shape[:2]
-    factor = max(1, int(round(max(height, width) / LINE_SIDE)))
+    factor = box_factor(max(height, width), LINE_SIDE)
     small_rgb = box_downsample(np.nan_to_num(np.asarray(rgb, dtype=np.float64)), factor)
     small = channel_sum(small_rgb)
     size = max(5, int(round(OPENING_SHARE * max(small.shape))) | 1)

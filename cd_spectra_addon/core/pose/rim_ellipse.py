@@ -27,7 +27,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..photo.resample import box_downsample, channel_sum
+from ..photo.resample import box_downsample, box_factor, channel_sum
 from .edge_outline import conic_ellipse, dark_disc_outline
 
 WORK_SIDE = 256  # the outline is found on an image of about this size
@@ -75,7 +75,7 @@ def disc_ellipse(rgb: NDArray[np.floating], saturated: NDArray[np.bool_] | None 
     """The disc's outline as an ellipse in ``rgb``'s pixels, or None where none shows: a lit disc
     on a dark surround, else (``dark``) a dark disc on a lit one."""
     height, width = rgb.shape[:2]
-    factor = max(1, int(round(max(height, width) / WORK_SIDE)))
+    factor = box_factor(max(height, width), WORK_SIDE)
     small = box_downsample(rgb, factor)
     lum = channel_sum(small)
     if saturated is not None:

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..numerics.fft import fast_length
-from ..photo.resample import box_downsample, channel_sum
+from ..photo.resample import box_downsample, box_factor, channel_sum
 from ..planning.capture_advice import glint_px
 from ..scene.capture import Preset, Scene
 from ..scene.diffraction import pixel_diffraction
@@ -121,7 +121,7 @@ class StartContext:
         """The photo's brightness box-averaged to about PATTERN_SIDE, less its median, and the
         factor: what the pattern, the rings and the arcs are read from (once per photo)."""
         height, width = self.rgb.shape[:2]
-        factor = max(1, int(round(max(height, width) / PATTERN_SIDE)))
+        factor = box_factor(max(height, width), PATTERN_SIDE)
         lum = channel_sum(box_downsample(self.rgb, factor))
         return np.clip(lum - np.median(lum), 0.0, None), factor
 
