@@ -126,3 +126,23 @@ def test_the_self_consistency_gradient_is_exact(name):
     # a few per cent on single components, nothing on the gradient's direction.
     assert g @ gn / (np.linalg.norm(g) * np.linalg.norm(gn)) > 0.999
     assert np.allclose(g, gn, rtol=0.1, atol=0.02 * np.abs(gn).max())
+
+
+def test_derivatives_in_passes_are_those_of_one_pass(monkeypatch):
+    """Many rays are differentiated in passes of DERIVATIVE_CHUNK (for the cache): the same
+    values, hits and order as one pass over them all."""
+    rng = np.random.default_rng(3)
+    n = 2 * kernel.DERIVATIVE_CHUNK + 77
+    rays = kernel.camera_rays(rng.uniform(-200, 500, n), rng.uniform(-200, 500, n), (300, 300), 400.0)
+    rays[rng.random(n) < 0.1, 2] *= -1.0  # looking away from the disc's plane: no hit
+    normal = np.array([0.05, -0.02, 1.0]) / np.linalg.norm([0.05, -0.02, 1.0])
+    args = (rays, np.zeros(3), np.array([3.0, -2.0, -210.0]), normal, np.array([40.0, 10.0, -20.0]))
+    dirs = rng.normal(size=(9, 4))
+    hit, geo = kernel.diffraction_along(*args, directions=dirs)
+    monkeypatch.setattr(kernel, "DERIVATIVE_CHUNK", 10 * n)
+    hit1, geo1 = kernel.diffraction_along(*args, directions=dirs)
+    assert not hit.all() and np.array_equal(hit, hit1)  # some rays miss: the passes keep their places
+    for name in ("points_c", "u", "v", "gain", "view_c", "radial_c"):
+        assert np.array_equal(getattr(geo, name), getattr(geo1, name))
+    for name in ("u", "v", "gain", "radius"):
+        assert np.array_equal(getattr(geo.derivatives, name), getattr(geo1.derivatives, name))

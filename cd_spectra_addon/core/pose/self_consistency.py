@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import Disc
-from ..scene.kernel import camera_rays, diffraction_along
+from ..scene.kernel import DERIVATIVE_CHUNK, camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
 
@@ -297,12 +297,15 @@ class SelfConsistency:
         self.norm = 1.0 / math.sqrt(max(float(np.sum(self.values ** 2)), 1e-300))
         self.evaluations = 0
 
-    def _pixels(self, rel: RelativePose, directions: NDArray[np.float64] | None = None):
-        hit, geo = diffraction_along(self.rays, np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm,
+    def _pixels(self, rel: RelativePose, directions: NDArray[np.float64] | None = None, part: slice = slice(None)):
+        """λ₁ and amplitude of the sample's pixels (those in ``part``), and with ``directions``
+        what the Jacobian needs of the kernel there."""
+        hit, geo = diffraction_along(self.rays[part], np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm,
                                      directions=directions)
         disc = self.disc
         sigma2 = rel.lobe_sigma ** 2
-        se2 = sigma2 + (self.blur_v2[hit] if self.blur_v2.ndim else np.full(int(hit.sum()), float(self.blur_v2)))
+        blur_v2 = self.blur_v2[part] if self.blur_v2.ndim else self.blur_v2
+        se2 = sigma2 + (blur_v2[hit] if self.blur_v2.ndim else np.full(int(hit.sum()), float(blur_v2)))
         n = hit.size
         lam = np.zeros(n)
         amp = np.zeros(n)
@@ -318,6 +321,33 @@ class SelfConsistency:
         amp[hit] = amp_h
         extra = (geo, hit, vis, e_lo, e_hi, lo_ramp, hi_ramp, taper, se2, sigma2) if directions is not None else None
         return lam, amp, extra
+
+    def _derivatives(self, rel: RelativePose, dmap: NDArray[np.float64], part: slice):
+        """λ₁, amplitude and their derivatives along ``dmap``'s columns for the pixels in ``part``."""
+        lam, amp, extra = self._pixels(rel, dmap[0:9], part)
+        geo, hit, vis, e_lo, e_hi, lo_ramp, hi_ramp, taper, se2, sigma2 = extra
+        k = dmap.shape[1]
+        d = geo.derivatives
+        du, dv, dgain, dr = d.u, d.v, d.gain, d.radius
+        pitch_nm = self.disc.pitch_um * 1e3
+        dlam_h = pitch_nm * np.sign(geo.u)[:, None] * du
+        v = geo.v[:, None]
+        # visibility: exp(−v²/2σe²)·σ/σe with σe² = σ² + b²
+        s2 = se2[:, None]
+        dlogvis = -v * dv / s2 + dmap[9][None, :] * ((v * v) * sigma2 / s2 ** 2 + (1.0 - sigma2 / s2))
+        de_lo = np.where((lo_ramp > 0) & (lo_ramp < 1), 1.0 / self.edge_mm, 0.0)[:, None] * dr
+        de_hi = np.where((hi_ramp > 0) & (hi_ramp < 1), -1.0 / self.edge_mm, 0.0)[:, None] * dr
+        dtaper = self.grid.taper_slope(geo.lambda1_nm(self.disc.pitch_um))[:, None] * dlam_h
+        base = vis * geo.gain
+        damp_h = (base[:, None] * dlogvis + (vis[:, None] * dgain)) * (e_lo * e_hi * taper)[:, None] \
+            + base[:, None] * (de_lo * (e_hi * taper)[:, None] + de_hi * (e_lo * taper)[:, None]
+                               + dtaper * (e_lo * e_hi)[:, None])
+        if hit.all():
+            return lam, amp, dlam_h, damp_h
+        dlam, damp = np.zeros((hit.size, k)), np.zeros((hit.size, k))
+        dlam[hit] = dlam_h
+        damp[hit] = damp_h
+        return lam, amp, dlam, damp
 
     def residuals_at(self, rel: RelativePose) -> NDArray[np.float64]:
         """The photo's residuals (no prior) for the capture ``rel``."""
@@ -345,28 +375,12 @@ class SelfConsistency:
             dmap[3:6, j] = (a.disc_normal - b.disc_normal) / (2 * step)
             dmap[6:9, j] = (a.lamp_mm - b.lamp_mm) / (2 * step)
             dmap[9, j] = (math.log(a.lobe_sigma) - math.log(b.lobe_sigma)) / (2 * step)
-        lam, amp, extra = self._pixels(rel, dmap[0:9])
-        geo, hit, vis, e_lo, e_hi, lo_ramp, hi_ramp, taper, se2, sigma2 = extra
-        d = geo.derivatives
-        du, dv, dgain, dr = d.u, d.v, d.gain, d.radius
-        pitch_nm = self.disc.pitch_um * 1e3
-        dlam_h = pitch_nm * np.sign(geo.u)[:, None] * du
-        v = geo.v[:, None]
-        # visibility: exp(−v²/2σe²)·σ/σe with σe² = σ² + b²
-        s2 = se2[:, None]
-        dlogvis = -v * dv / s2 + dmap[9][None, :] * ((v * v) * sigma2 / s2 ** 2 + (1.0 - sigma2 / s2))
-        de_lo = np.where((lo_ramp > 0) & (lo_ramp < 1), 1.0 / self.edge_mm, 0.0)[:, None] * dr
-        de_hi = np.where((hi_ramp > 0) & (hi_ramp < 1), -1.0 / self.edge_mm, 0.0)[:, None] * dr
-        dtaper = self.grid.taper_slope(geo.lambda1_nm(self.disc.pitch_um))[:, None] * dlam_h
-        base = vis * geo.gain
-        damp_h = (base[:, None] * dlogvis + (vis[:, None] * dgain)) * (e_lo * e_hi * taper)[:, None] \
-            + base[:, None] * (de_lo * (e_hi * taper)[:, None] + de_hi * (e_lo * taper)[:, None]
-                               + dtaper * (e_lo * e_hi)[:, None])
-        n = hit.size
-        dlam = np.zeros((n, k))
-        damp = np.zeros((n, k))
-        dlam[hit] = dlam_h
-        damp[hit] = damp_h
+        n = self.rays.shape[0]
+        lam, amp = np.empty(n), np.empty(n)
+        dlam, damp = np.zeros((n, k)), np.zeros((n, k))
+        for a in range(0, n, DERIVATIVE_CHUNK):  # in passes that stay in the CPU's cache (see the kernel's)
+            part = slice(a, a + DERIVATIVE_CHUNK)
+            lam[part], amp[part], dlam[part], damp[part] = self._derivatives(rel, dmap, part)
         fit = _Fit(self.values, lam, amp, self.grid)
         return _profile_jacobian(self.values, fit, self.grid, dlam, damp) * self.norm
 

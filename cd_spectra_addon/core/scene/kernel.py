@@ -30,6 +30,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 COS_EPS = 1e-3  # cosines are clamped here: keeps G/w² finite at grazing angles
+# Rays per pass of the derivatives: their ~60 (rays × changes) arrays then stay in the CPU's cache
+# (the fine pose fit's 8000 rays × 7 changes: 12.3 ms in one pass, 6.2 ms in passes of 2000;
+# 500: 9.6 ms). The values are the same, element by element.
+DERIVATIVE_CHUNK = 2048
 
 __all__ = ["COS_EPS", "rotation_xy", "rotation_about", "turn_between", "camera_rays", "index_rays", "project",
            "intersect_plane", "Diffraction", "Derivatives", "diffraction_at", "diffraction_along"]
@@ -227,6 +231,10 @@ def diffraction_along(rays: NDArray[np.float64], eye: NDArray[np.float64], centr
     n = n / np.linalg.norm(n)
     c = np.asarray(centre, dtype=np.float64)
     rays = np.asarray(rays, dtype=np.float64).reshape(-1, 3)
+    if directions is not None and rays.shape[0] > DERIVATIVE_CHUNK:
+        parts = [diffraction_along(rays[i:i + DERIVATIVE_CHUNK], e, c, n, lamp, directions)
+                 for i in range(0, rays.shape[0], DERIVATIVE_CHUNK)]
+        return np.concatenate([hit for hit, _ in parts]), _joined([geo for _, geo in parts])
     d = np.ascontiguousarray(rays.T)  # (3, n)
     denom = n[0] * d[0] + n[1] * d[1] + n[2] * d[2]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -244,6 +252,16 @@ def diffraction_along(rays: NDArray[np.float64], eye: NDArray[np.float64], centr
         raise ValueError("derivatives are for the camera frame (eye at the origin)")
     return hit, _with_derivatives(out, d, d @ n, c, n, np.asarray(lamp, dtype=np.float64),
                                   np.asarray(directions, dtype=np.float64))
+
+
+def _joined(parts: list[Diffraction]) -> Diffraction:
+    """One :class:`Diffraction` of consecutive parts (their points in order)."""
+    fields = {f: np.concatenate([getattr(p, f) for p in parts], axis=-1)
+              for f in Diffraction.__dataclass_fields__ if f != "derivatives"}
+    d = [p.derivatives for p in parts]
+    derivatives = None if d[0] is None else Derivatives(
+        **{f: np.concatenate([getattr(x, f) for x in d], axis=0) for f in Derivatives.__dataclass_fields__})
+    return Diffraction(**fields, derivatives=derivatives)
 
 
 def _with_derivatives(out: Diffraction, d: NDArray[np.float64], denom: NDArray[np.float64],
