@@ -225,3 +225,32 @@ def test_tail_settings_that_make_no_sense_are_refused(tmp_path, bad):
     onnx.with_suffix(".json").write_text(json.dumps({**meta, "tails": bad}))
     with pytest.raises(ModelError, match="tails"):
         load_model(onnx)
+
+
+@pytest.mark.parametrize("kind", ["planck", "led", "phosphor"])
+def test_the_batched_temperature_search_is_the_nnls_one(capture, model, kind):
+    """Every grid temperature's χ² from the batched solves equals its own NNLS (the search the
+    batches replaced), temperatures whose backgrounds sit at their bound of 0 included."""
+    from cd_spectra_addon.core.numerics.nnls import nnls_normal
+    from cd_spectra_addon.core.spectrum import tails
+    from cd_spectra_addon.core.spectra.illuminants import planck
+
+    spd = {"planck": planck_spd(2700.0), "led": _warm_led(), "phosphor": _tri_phosphor()}[kind]
+    _, rows = _solve(capture, model, spd)
+    n, a, y = rows.n, rows.a, rows.y
+    free, spectral = a[:, n:], a[:, :n]
+    yy = float(y @ y)
+
+    def chi2(t):
+        col = spectral @ planck(LAM, t)
+        g = np.block([[np.array([[col @ col]]), (free.T @ col)[None, :]], [(free.T @ col)[:, None], free.T @ free]])
+        rhs = np.concatenate([[col @ y], free.T @ y])
+        g += 1e-12 * np.trace(g) / g.shape[0] * np.eye(g.shape[0])
+        x = nnls_normal(g, rhs)
+        return max(yy - 2 * float(x @ rhs) + float(x @ g @ x), 0.0), x, None
+
+    reference = np.array([chi2(float(t))[0] for t in tails.TEMPERATURES_K])
+    bound = sum(bool(np.any(chi2(float(t))[1][1:] == 0.0)) for t in tails.TEMPERATURES_K)
+    batched = tails._grid_chi2(spectral, free, free.T @ free, free.T @ y, y, yy, chi2)
+    np.testing.assert_allclose(batched, reference, rtol=1e-9, atol=1e-12 * yy)
+    assert bound > 0 or kind != "planck"  # the clamped patterns were exercised

@@ -120,7 +120,7 @@ def planck_fit(rows: Rows) -> PlanckFit | None:
         x = nnls_normal(g, rhs)
         return max(yy - 2 * float(x @ rhs) + float(x @ g @ x), 0.0), x, p
 
-    values = np.array([chi2(float(t))[0] for t in TEMPERATURES_K])
+    values = _grid_chi2(spectral, free, g_free, r_free, y, yy, chi2)
     k = int(np.clip(np.argmin(values), 1, TEMPERATURES_K.size - 2))
     lt = np.log(TEMPERATURES_K[k - 1:k + 2])
     c = np.polyfit(lt, values[k - 1:k + 2], 2)
@@ -131,6 +131,51 @@ def planck_fit(rows: Rows) -> PlanckFit | None:
         best, x, p = chi2(float(TEMPERATURES_K[k]))
         t_best = float(TEMPERATURES_K[k])
     return PlanckFit(t_best, float(x[0]), best / a.shape[0], float(x[0]) * p)
+
+
+def _grid_chi2(spectral: NDArray[np.float64], free: NDArray[np.float64], g_free: NDArray[np.float64],
+               r_free: NDArray[np.float64], y: NDArray[np.float64], yy: float, chi2) -> NDArray[np.float64]:
+    """χ² of every grid temperature, the non-negative fits solved in batches. The solution of a
+    positive definite problem is fixed by which coefficients are positive (its pattern), and
+    neighbouring temperatures share patterns: ``chi2``'s NNLS finds a pattern for one unsolved
+    temperature, one batched solve tries it on all the others, and each takes it where the
+    optimality (KKT) conditions hold. 4–6 NNLS calls instead of 121: the spectrum stage's 12 ms
+    had 8 in them."""
+    n_t = TEMPERATURES_K.size
+    cols = spectral @ planck(WAVELENGTHS_NM, TEMPERATURES_K[:, None]).T  # (rows, temperatures)
+    k = free.shape[1] + 1
+    g = np.empty((n_t, k, k))
+    g[:, 0, 0] = np.einsum("rt,rt->t", cols, cols)
+    g[:, 0, 1:] = g[:, 1:, 0] = cols.T @ free
+    g[:, 1:, 1:] = g_free
+    rhs = np.concatenate([(cols.T @ y)[:, None], np.broadcast_to(r_free, (n_t, k - 1))], axis=1)
+    g += (1e-12 * np.trace(g, axis1=1, axis2=2) / k)[:, None, None] * np.eye(k)
+    values = np.full(n_t, np.nan)
+    tol = 1e-10 * np.maximum(np.max(np.abs(rhs), axis=1), 1e-300)
+    tried: set[tuple[bool, ...]] = set()
+    pattern = np.ones(k, dtype=bool)  # the unconstrained solution first
+    while True:
+        key = tuple(bool(v) for v in pattern)
+        todo = np.flatnonzero(np.isnan(values))
+        if key not in tried and np.any(pattern):
+            tried.add(key)
+            sub = np.ix_(todo, np.flatnonzero(pattern), np.flatnonzero(pattern))
+            try:
+                xp = np.linalg.solve(g[sub], rhs[np.ix_(todo, np.flatnonzero(pattern))][..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                xp = None
+            if xp is not None:
+                x = np.zeros((todo.size, k))
+                x[:, pattern] = xp
+                grad = np.einsum("tij,tj->ti", g[todo], x) - rhs[todo]
+                ok = np.all(xp > 0, axis=1) & np.all(grad[:, ~pattern] >= -tol[todo, None], axis=1)
+                values[todo[ok]] = np.maximum(yy - np.einsum("tk,tk->t", x[ok], rhs[todo[ok]]), 0.0)
+                todo = todo[~ok]
+        if todo.size == 0:
+            return values
+        value, x, _ = chi2(float(TEMPERATURES_K[todo[0]]))
+        values[todo[0]] = value
+        pattern = x > 0
 
 
 def thermal_weight(fit: PlanckFit | None, settings: TailSettings) -> float:
