@@ -52,10 +52,11 @@ def test_band_radiance_is_finite_non_negative_and_sparse_equals_dense(
     sparse = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).dense()
     assert dense.shape == (1, N_BANDS)
     assert np.all(np.isfinite(dense)) and dense.min() >= 0.0
-    # The sparse path drops lobe tails beyond 7σ in u or v: < 3e-11 of a lobe's peak, which is
-    # irradiance·G/w²/(2πσ²) times at most 2 (Fresnel + front surface) times a 5 nm hat.
+    # The sparse path drops lobe tails beyond its reach (5σ) in u or v: exp(−reach²/2) < 4e-6 of a
+    # lobe's peak, which is irradiance·G/w²/(2πσ²) times at most 2 (Fresnel + front surface)
+    # times a 5 nm hat.
     peak = float(np.max(frame.irradiance * frame.g_over_w2)) / (2 * math.pi * sigma ** 2)
-    tail = 3e-11 * 2.0 * 5.0 * peak
+    tail = math.exp(-grating._LOBE_REACH ** 2 / 2.0) * 2.0 * 5.0 * peak
     np.testing.assert_allclose(sparse, dense, rtol=1e-9, atol=tail + 1e-12 * max(float(dense.max()), 1e-300))
 
 

@@ -67,15 +67,7 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
         scene.disc_normal, scene.preset.disc.medium_index, scene.preset.light.intensity,
         view_directions=samples.view)
     optics = grating.GratingOptics(scene.preset.disc, scene.preset.light.lobe_sigma)
-    radiance = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).dense()
-    footprint = np.zeros((rep.size, n_bands))
-    # np.add.at(footprint, owner, radiance), the same sums in the same order, ~5× faster: owner
-    # is ascending, so the k-th sample of every pixel is added in one step, k = 0, 1, ...
-    run_start = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]]) if owner.size else owner
-    within = np.arange(owner.size) - np.repeat(run_start, np.diff(np.r_[run_start, owner.size]))
-    for k in range(dr.size):
-        at = np.flatnonzero(within == k)
-        footprint[owner[at]] += radiance[at]
+    footprint = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).summed(owner, rep.size)
     footprint /= dr.size  # missing samples count as black, as in the photo
     per_unit = footprint / px.amplitude[rep, None]
     sub_response = np.zeros((n_sub, n_bands))

@@ -346,13 +346,22 @@ class SparseBands:
 
     def dense(self) -> NDArray[np.float64]:
         """(n_points, n_bands) radiance."""
+        return self.summed(np.arange(self.n_points), self.n_points)
+
+    def summed(self, group: NDArray[np.int64], n_groups: int) -> NDArray[np.float64]:
+        """(n_groups, n_bands): the radiance of the points summed by ``group`` (one per point) —
+        a pixel's footprint samples into the pixel without the dense (points × bands) array."""
         n_bands = self.areas.size
-        flat = np.bincount(self.point * n_bands + self.band, weights=self.value,
-                           minlength=self.n_points * n_bands).reshape(self.n_points, n_bands)
-        return flat + self.diffuse_per_nm[:, None] * self.areas[None, :]
+        flat = np.bincount(group[self.point] * n_bands + self.band, weights=self.value,
+                           minlength=n_groups * n_bands).reshape(n_groups, n_bands)
+        diffuse = np.bincount(group, weights=self.diffuse_per_nm, minlength=n_groups)
+        return flat + diffuse[:, None] * self.areas[None, :]
 
 
-_LOBE_REACH = 7.0  # lobe tails beyond 7 standard deviations are < 3e-11 of the peak
+# Lobe tails beyond 5 standard deviations are < 4e-6 of the peak: below a 16-bit code (1.5e-5) in
+# a render, and they changed the forward matrix of a 24 MP near-axis photo by 3e-10 of its largest
+# entry (7: 0, the reach it had; 4: 1e-7), for 26 % less of its time (37.6 → 27.8 ms).
+_LOBE_REACH = 5.0
 
 
 def band_radiance_sparse(
@@ -399,7 +408,6 @@ def band_radiance_sparse(
             live = np.flatnonzero(tracks & (lam_star > lam[0] - reach) & (lam_star < lam[-1] + reach))
             if not live.size:
                 continue
-            sub = _take(frame, live)
             nearest = np.rint((lam_star[live] - lam[0]) / step).astype(np.int64)
             # The in-grid bands within ±n_side of each lobe: never more than the grid itself,
             # however wide the lobe (an unbounded range once asked numpy for 1e51 elements).
@@ -408,7 +416,7 @@ def band_radiance_sparse(
             band = first[:, None] + np.arange(width)[None, :]
             ok = band <= last[:, None]
             rows, cols = np.nonzero(ok)
-            sel = _take(sub, rows)
+            sel = _take(frame, live[rows])
             vals = diffracted_order(sel, optics, order, lam[band[rows, cols]], half_width_nm, lo_nm, hi_nm)
             points.append(live[rows])
             bands.append(band[rows, cols])
