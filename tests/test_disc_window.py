@@ -107,7 +107,7 @@ def test_the_window_reaches_a_disc_placed_off_the_frame_centre(tmp_path):
 def test_a_large_disc_is_read_reduced_to_whole_preview_pixels(tmp_path, fmt):
     """A disc at least 2 × DISC_READ_PX wide in the preview is read at the integer reduction that
     leaves it at least DISC_READ_PX wide: here a 384 × 256 render upsampled 4× to 1536 × 1024 is
-    read back at its rendered size (a JPEG foresees it from its header, a PNG reduces its decode)."""
+    read back at its rendered size, box-averaged in linear light from the preview's decode."""
     preset = load_preset("cd-default").with_image_size(384, 256)
     scene = Scene(preset)
     img, _ = photo.expose(photo.linear_photo(render_cube(scene, supersample=1), np.ones(81),

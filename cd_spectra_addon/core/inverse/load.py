@@ -14,14 +14,15 @@ photo pixel): whole frame (disc 416 px) MAE 400–700 0.0205 / Δu'v' 0.0009 in 
 the disc at 832 px 0.0214 / 0.0011 in 4.5 s — no better at twice the time once the disc has
 ~400 px, hence the threshold.
 
-A disc at least twice :data:`DISC_READ_PX` wide is read at the integer reduction that leaves it
-at least that wide: each read pixel is then the box average of whole preview pixels, the footprint
-the forward model integrates over. Measured (`make bench`'s operating points, 41 LSPDD lamps,
-768 px cd-default JPEGs, disc ~690 px): read at 768 px MAE 400–700 0.0118, 380–780 0.0251,
-Δu'v' 0.0006 in 351 ms; read at 384 px (disc ~345 px) 0.0117, 0.0246, 0.0004 in 201 ms — no
-worse, and the readout of a 24 MP photo's near-axis rings falls from 88 to 18 ms. (At 512 px, a
-reduction of 1.5 that mixes pixels unevenly, 0.0122.) For a JPEG the reduction is foreseen from
-its header and the preset, so the cheaper draft decode is the only one.
+A disc at least twice :data:`DISC_READ_PX` wide is read at the power-of-two reduction that
+leaves it at least that wide, box-averaged in linear light from the preview (no other decode, and
+a JPEG's codes averaged over no larger a draft block than before: a camera-sized file's saturated
+spots and tone curve are judged at the preview's resolution). Each read pixel is then the average
+of whole preview pixels, the footprint the forward model integrates over. Measured (`make bench`'s
+operating points, 41 LSPDD lamps, 768 px cd-default JPEGs, disc ~690 px): read at 768 px MAE
+400–700 0.0118, 380–780 0.0251, Δu'v' 0.0006 in 351 ms; at 384 px (disc ~345 px) 0.0117,
+0.0246, 0.0004 in 201 ms — no worse, and the readout of a 24 MP photo's near-axis rings falls from
+88 to 18 ms. (At 512 px, a reduction of 1.5 that mixes pixels unevenly, 0.0122.)
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from numpy.typing import NDArray
 
 from .stages import focal_px_for, focal_px_of
 from ..scene.capture import Preset, Scene
-from ..photo.images import LinearImage, PhotoReader
+from ..photo.images import LinearImage, PhotoReader, reduced
 
 PREVIEW_SIDE = 1024  # the first, whole-frame read
 DISC_MIN_PX = 400  # a disc this wide in the preview is read as it is
@@ -109,65 +110,44 @@ def _window(scale: float, hx: float, hy: float, diameter: float) -> tuple[int, t
 
 def reduction(diameter: float) -> int:
     """The reduction a whole-frame read of a disc ``diameter`` px wide gets (1: none): the largest
-    power of two that leaves it at least :data:`DISC_READ_PX` wide. Powers of two, as the JPEG
-    draft scales are: a reduction of 3 on a 1/8 draft read has no exact draft × box."""
+    power of two that leaves it at least :data:`DISC_READ_PX` wide."""
     k = 1
     while diameter >= 2 * k * DISC_READ_PX:
         k *= 2
     return k
 
 
-def _reduced_side(long_side: int, scale: float, k: int) -> int:
-    """The ``max_side`` whose read of a photo ``long_side`` px long has ``k`` × ``scale``."""
-    return max(1, math.ceil(long_side / (scale * k)))
-
-
-def _foresee(reader: PhotoReader, preset: Preset) -> int:
-    """The side of the first read, from a JPEG's header and the preset's rim alone: the preview's,
-    or a reduced one for a large disc (:data:`DISC_READ_PX`). Where the rim asks for a window,
-    its decode starts while the preview decodes (a JPEG's preview and window are two draft
-    scales, decoded side by side on two cores); bright pixels beyond the rim may widen the window
-    to another scale, and the guess is then only wasted work."""
+def _guess_window(reader: PhotoReader, preset: Preset) -> None:
+    """Start decoding the window the rim alone asks for while the preview decodes (a JPEG's
+    preview and window are two draft scales, decoded side by side on two cores). Bright pixels
+    beyond the rim may widen the window to another scale; the guess is then only wasted work."""
     layout = reader.layout(PREVIEW_SIDE)
     if layout is None:
-        return PREVIEW_SIDE
+        return
     width, height, scale, exif, shown = layout
+    if scale <= 1.0:
+        return
     focal_px, _ = focal_px_of(exif, width, scale, shown, preset)
     rim = _rim_extent(width, height, focal_px, preset)
     if rim is None:
-        return PREVIEW_SIDE
+        return
     hx, hy, diameter = rim
-    window = _window(scale, min(hx, width / 2.0), min(hy, height / 2.0), diameter) if scale > 1.0 else None
+    window = _window(scale, min(hx, width / 2.0), min(hy, height / 2.0), diameter)
     if window is not None:
         reader.prefetch(*window)
-        return PREVIEW_SIDE
-    k = reduction(diameter)
-    if k == 1:
-        return PREVIEW_SIDE
-    side = _reduced_side(max(shown), scale, k)
-    reduced = reader.layout(side)
-    return side if reduced is not None and reduced[2] == scale * k else PREVIEW_SIDE
 
 
 def load_for_estimate(path: str | Path, preset: Preset) -> LinearImage:
     """The photo as the estimate reads it: the preview, the window around a small disc, or the
     preview reduced for a large one (see the module doc). One reader: a window at the preview's
     JPEG draft scale (or from any format that decodes whole) reuses the preview's decode, a
-    JPEG's finer window is decoded alongside the preview where it can be foreseen, a JPEG's
-    reduction is foreseen and decoded at once, and only the image returned is judged for camera
-    processing."""
+    JPEG's finer window is decoded alongside the preview where it can be foreseen, and only the
+    image returned is judged for camera processing."""
     with PhotoReader(path) as reader:
-        side = _foresee(reader, preset)
-        preview = reader.load(side, judge=False)
-        if side != PREVIEW_SIDE:
-            return reader.judge(preview)  # a large disc, read reduced
+        _guess_window(reader, preset)
+        preview = reader.load(PREVIEW_SIDE, judge=False)
         _, _, diameter = extent = disc_half_extent(preview, preset)
         window = _window(preview.scale, *extent) if preview.scale > 1.0 else None
         if window is not None:
             return reader.load(window[0], centre_crop_px=window[1])
-        k = reduction(diameter)
-        if k > 1:  # not foreseen (not a JPEG): the file's one decode, box-averaged further
-            reduced = reader.load(_reduced_side(max(preview.original_size), preview.scale, k))
-            if reduced.scale == preview.scale * k:
-                return reduced
-        return reader.judge(preview)
+        return reader.judge(reduced(preview, reduction(diameter)))

@@ -100,7 +100,7 @@ from .raw_files import RawPhoto, read_raw
 from .srgb import srgb_decode
 
 __all__ = [
-    "LinearImage", "ExifInfo", "PhotoHeader", "DecodedPixels", "Decoder", "load_photo", "PhotoReader",
+    "LinearImage", "ExifInfo", "PhotoHeader", "DecodedPixels", "Decoder", "load_photo", "reduced", "PhotoReader",
     "register_decoder", "unregister_decoder", "decoders_need_main_thread", "SATURATION_8BIT", "SATURATION_16BIT",
 ]
 
@@ -139,6 +139,20 @@ class LinearImage:
     def to_original(self, row: float, col: float) -> tuple[float, float]:
         """(x, y) in the displayed photo's original pixels of a loaded (row, col) position."""
         return (self.origin_px[0] + (col + 0.5) * self.scale - 0.5, self.origin_px[1] + (row + 0.5) * self.scale - 0.5)
+
+
+def reduced(image: LinearImage, k: int) -> LinearImage:
+    """``image`` box-averaged ``k`` × ``k`` in linear light (trailing rows and columns dropped, as
+    every load drops them), a block saturated or invalid where any of its pixels is: the photo
+    read ``k`` times coarser without another decode, and without averaging a JPEG's codes over
+    a larger draft block than the read it comes from."""
+    if k <= 1:
+        return image
+    h, w = image.rgb.shape[0] // k * k, image.rgb.shape[1] // k * k
+    rgb = _box_sum(np.ascontiguousarray(image.rgb[:h, :w]), k) * np.float32(1.0 / (k * k))
+    return replace(image, rgb=np.ascontiguousarray(rgb, dtype=np.float32),
+                   saturated=_box_any(image.saturated[:h, :w], k), invalid=_box_any(image.invalid[:h, :w], k),
+                   scale=image.scale * k)
 
 
 def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto",
