@@ -231,11 +231,11 @@ def run_row(shooter: Shooter, row: Row, lamps: list[Lamp], model: Any, held: lis
         seconds.append(time.perf_counter() - t0)
         rows.append({**metrics(est.spd, lamp.spd), "confidence": est.confidence, "lamp": lamp.name,
                      "camera": est.camera, "processed": image.processed})
-    summary = summary(rows)
-    summary["seconds_per_photo"] = float(np.mean(seconds))
-    summary["processed_share"] = float(np.mean([r["processed"] for r in rows]))
-    summary["cameras"] = sorted({r["camera"] for r in rows})
-    return summary
+    out = summary(rows)
+    out["seconds_per_photo"] = float(np.mean(seconds))
+    out["processed_share"] = float(np.mean([r["processed"] for r in rows]))
+    out["cameras"] = sorted({r["camera"] for r in rows})
+    return out
 
 
 def load_seconds(tmp: Path) -> dict[str, float]:
