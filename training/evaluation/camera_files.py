@@ -43,6 +43,7 @@ from cd_spectra_addon.core.calibration.calibration import Calibration, new_metad
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.inverse.calibration_shot import fit_calibration
 from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
+from cd_spectra_addon.core.errors import NoDiscError
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
@@ -203,10 +204,13 @@ def _styles(row: Row, n_lamps: int) -> list[InCameraStyle | None]:
 
 
 def run_row(shooter: Shooter, row: Row, lamps: list[Lamp], model: Any, held: list[str]) -> dict[str, Any]:
+    """The row's summary over the lamps estimated; ``refused`` counts the lamps the product
+    refused (no rainbow found in the photo, or in the calibration shot they would use): a
+    refusal is an outcome the product reports, not a crash of the table."""
     preset = shooter.scene.preset
     styles = _styles(row, len(lamps))
-    calibrations: dict[tuple[InCameraStyle | None, str], Calibration] = {}
-    rows, seconds = [], []
+    calibrations: dict[tuple[InCameraStyle | None, str], Calibration | None] = {}
+    rows, seconds, refused = [], [], []
     ref = known_lamp_spd("incandescent")
     for i, lamp in enumerate(lamps):
         camera, exif_name, own = _camera(row, i, held)
@@ -220,14 +224,26 @@ def run_row(shooter: Shooter, row: Row, lamps: list[Lamp], model: Any, held: lis
                 shot = shooter.shoot(row, ref, camera, exif_name, pipeline, seed=99 + i, tag="calibration")
                 profile, generic, name, _ = resolve_camera(profile_name, shot, model)
                 prior = camera_prior_for(model) if generic and row.calibration != "gains" else None
-                calibrations[key], _ = fit_calibration(shot, ref, preset, profile, generic,
-                                                       pipeline=row.calibration == "pipeline", prior=prior,
-                                                       name="eval", metadata=new_metadata("eval", "CIE A"))
+                try:
+                    calibrations[key], _ = fit_calibration(shot, ref, preset, profile, generic,
+                                                           pipeline=row.calibration == "pipeline", prior=prior,
+                                                           name="eval", metadata=new_metadata("eval", "CIE A"))
+                except NoDiscError as exc:
+                    print(f"  {camera.name}: calibration refused ({str(exc)[:60]}...)", flush=True)
+                    calibrations[key] = None
             cal = calibrations[key]
+            if cal is None:
+                refused.append(lamp.name)
+                continue
         image = shooter.shoot(row, lamp.spd, camera, exif_name, pipeline, seed=1000 + i, tag="photo")
         t0 = time.perf_counter()
-        est = estimate_image(image, preset=preset, camera=profile_name,
-                             calibration=cal, model=model)
+        try:
+            est = estimate_image(image, preset=preset, camera=profile_name,
+                                 calibration=cal, model=model)
+        except NoDiscError as exc:
+            print(f"  {lamp.name} ({camera.name}): refused ({str(exc)[:60]}...)", flush=True)
+            refused.append(lamp.name)
+            continue
         seconds.append(time.perf_counter() - t0)
         rows.append({**metrics(est.spd, lamp.spd), "confidence": est.confidence, "lamp": lamp.name,
                      "camera": est.camera, "processed": image.processed})
@@ -235,6 +251,7 @@ def run_row(shooter: Shooter, row: Row, lamps: list[Lamp], model: Any, held: lis
     out["seconds_per_photo"] = float(np.mean(seconds))
     out["processed_share"] = float(np.mean([r["processed"] for r in rows]))
     out["cameras"] = sorted({r["camera"] for r in rows})
+    out["refused"] = len(refused)
     return out
 
 
@@ -293,7 +310,9 @@ def report(results: list[tuple[str, Row, dict[str, Any]]], lamps: int, size: int
         for row, summary in rows:
             ref = by_key.get(row.reference)
             ratio = f"{summary['mae_400_700'] / ref['mae_400_700']:.2f} ({names[row.reference]})" if ref else "–"
-            lines.append(f"| {row.label} | {_fmt(summary['mae_400_700'])} ({_fmt(summary['mae_400_700_median'])}) | "
+            note = f"; {summary['refused']} of {lamps} refused (no rainbow)" if summary.get("refused") else ""
+            mae = f"{_fmt(summary['mae_400_700'])} ({_fmt(summary['mae_400_700_median'])}){note}"
+            lines.append(f"| {row.label} | {mae} | "
                          f"{ratio} | {_fmt(summary['delta_uv_prime'])} | {summary['confidence']:.2f} | "
                          f"{100 * summary['processed_share']:.0f}% |")
     lines += ["", "Goals (issue 11): DNG as good as EXR; in-camera JPEG + one CIE A calibration within 1.3× of DNG; "
