@@ -22,8 +22,12 @@ photographed by a camera whose pixels are twice the cube's per side and written 
   gains and with what ``calibrate`` now does for the generic profile: fit the camera's own
   sensitivities (:mod:`cd_spectra_addon.core.calibration.camera_fit`), then gains.
 
-Everything goes through the product's loader (``load_for_estimate``) → ``estimate_image`` (camera "auto" unless stated):
-the product's path. All figures are from the simulator.
+Every file is read by the product's decoders (``load_photo``: rawpy, libheif, JPEG draft) at the
+rendered size → ``estimate_image`` (camera "auto" unless stated). Not through ``load_for_estimate``,
+which reads any photo under 1024 px whole: these files are 2× or 4× the rendered size and under
+1024 px, so read whole every rendered pixel would be a block of equal pixels whose footprint the
+forward model takes for a half or a quarter (per side) of what it is
+(:func:`training.simulation.photo.read_rendered`). All figures are from the simulator.
 """
 
 from __future__ import annotations
@@ -47,7 +51,6 @@ from cd_spectra_addon.core.errors import NoDiscError
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Scene, load_preset
 from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
-from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.photo.images import LinearImage, load_photo
 from cd_spectra_addon.core.spectrum.model import load_model
 
@@ -147,7 +150,11 @@ class Shooter:
         self.cube = render_cube(self.scene, supersample=3)
         self.render_seconds = time.perf_counter() - t0
         self.meter = photo.track_mask(self.scene)
-        self.max_side = max(self.scene.preset.camera.image_size_px)
+
+    def read(self, path: Path) -> LinearImage:
+        """A file this shooter wrote, decoded by the product's loader at the rendered size (every
+        row's file is :data:`UPSAMPLE` or 4× that per side: see :func:`photo.read_rendered`)."""
+        return photo.read_rendered(path, self.scene)
 
     def native(self, spd: np.ndarray, camera: CameraProfile, seed: int, upsample: int, per_site: bool = False
                ) -> np.ndarray:
@@ -171,14 +178,14 @@ class Shooter:
                                        white=15000,
                                        make=make, model=model or make, focal_length_mm=cam.focal_length_mm,
                                        focal_plane_px_per_mm=2 * width / cam.sensor_width_mm, seed=seed))  # per photosite
-            return load_for_estimate(path, self.scene.preset)
+            return self.read(path)
         image = self.native(spd, camera, seed, row.upsample)
         if pipeline is not None:
             image = render_in_camera(image, pipeline, photo.upsample(self.meter, row.upsample).astype(bool))
             exif = in_camera_exif(exif)
         path = self.tmp / f"{tag}.{ {'tiff16': 'tif', 'jpg422': 'jpg'}.get(row.fmt, row.fmt)}"
         photo.write_photo(path, image, row.fmt, exif)
-        return load_for_estimate(path, self.scene.preset)
+        return self.read(path)
 
 
 def _camera(row: Row, index: int, held: list[str]) -> tuple[CameraProfile, str, str]:
@@ -297,7 +304,8 @@ def report(results: list[tuple[str, Row, dict[str, Any]]], lamps: int, size: int
         "",
         f"`{'python -m training.evaluation.camera_files --synthetic' if synthetic else 'make eval-camera-files'}` — "
         f"{lamps} {source}, nominal pose, numpy forward model at {size}×{size} px (the photo {UPSAMPLE}× that per "
-        f"side unless stated), 1 % sensor noise, the shipped model, camera \"auto\" (from EXIF) unless stated. "
+        f"side unless stated, read back at {size}×{size} by the product's decoders), 1 % sensor noise, the "
+        "shipped model, camera \"auto\" (from EXIF) unless stated. "
         f"{seconds:.0f} s on one core. Calibrations are one shot of CIE A taken the same way (same camera, file "
         "type and settings). **All figures are from the simulator.**",
     ]
