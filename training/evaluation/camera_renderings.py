@@ -23,7 +23,10 @@ Real cameras' own renderings (learned from public RAW+JPEG pairs) are not measur
 could be fetched where this was built (the public raw test files found — rawpy's and
 rawtoaces' — are larger than the copies available here hold), so nothing reads them yet.
 
-Everything goes through the product's loader and estimator. All figures are from the simulator.
+Every file is read by the product's decoders at the rendered size (``Shooter.read``: the DNG
+binned and the JPEGs reduced 2×, LibRaw's full-photosite JPEG 4×; ``load_for_estimate`` would read
+these sub-1024-px files whole, every rendered pixel a block of equal pixels) and estimated by the
+product's estimator. All figures are from the simulator.
 """
 
 from __future__ import annotations
@@ -44,7 +47,6 @@ from numpy.typing import NDArray
 from cd_spectra_addon.core.calibration.calibration import EXPLAIN_LIMIT, Calibration, new_metadata
 from cd_spectra_addon.core.inverse.calibration_shot import Shot, fit_shots
 from cd_spectra_addon.core.inverse.estimate import camera_prior_for, estimate_image, resolve_camera
-from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
@@ -109,7 +111,7 @@ class Photographer:
         return path
 
     def raw(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, seed: int, tag: str) -> LinearImage:
-        return load_for_estimate(self._dng(spd, camera, exif_name, seed, tag), self.preset)
+        return self.shooter.read(self._dng(spd, camera, exif_name, seed, tag))
 
     def jpeg(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, rendering: str | Renderer,
              seed: int, tag: str) -> LinearImage:
@@ -122,7 +124,7 @@ class Photographer:
         exif = in_camera_exif(self._exif(exif_name, image.shape[1]))
         path = self.tmp / f"{tag}.jpg"
         photo.write_photo(path, image, "jpg", exif)
-        return load_for_estimate(path, self.preset)
+        return self.shooter.read(path)
 
 
 # The known lamps of a calibration: a bulb (CIE A), and a bulb and daylight (D65).
@@ -179,7 +181,8 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
     lines = [SECTION_START, "## In-camera JPEGs from renderings the calibration never modelled (issue 20)", "",
              f"`python -m training.evaluation.camera_renderings --write` — {lamps} LSPDD lamps (evaluation only, "
              f"other lamps than the tables above), nominal pose, {size}×{size} px read from a photo {UPSAMPLE}× that "
-             "per side, 1 % sensor noise, the shipped model; each JPEG is 8-bit 4:2:0 quality 90 with a camera's EXIF "
+             "per side (LibRaw's rendering: 4×, a pixel per photosite) by the product's decoders, 1 % sensor "
+             "noise, the shipped model; each JPEG is 8-bit 4:2:0 quality 90 with a camera's EXIF "
              "(sRGB, fixed white balance), calibrated by one CIE A photo rendered the same way, as `calibrate "
              "--known-lamp A` does, or by a CIE A and a D65 photo (same white balance and settings, each exposed as "
              "the camera meters it), as `calibrate A.jpg D65.jpg --known-lamp A --known-lamp D65` does. "

@@ -42,7 +42,7 @@ from cd_spectra_addon.core.scene.capture import REFERENCE_PRESET, Disc, Scene, l
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
-from cd_spectra_addon.core.photo.images import LinearImage, load_photo
+from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.spectrum.model import load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
@@ -122,7 +122,7 @@ class Photos:
         captures then read worse (tilt 1° MAE 400–700 0.023 → 0.046 on a third of the subset),
         and an injected centre error of N px is half as large."""
         _, scene, _ = self.cube(cond.spec)
-        return load_photo(path, max_side=max(scene.preset.camera.image_size_px))
+        return photo.read_rendered(path, scene)
 
 
 def metrics(est: np.ndarray, ref: np.ndarray) -> dict[str, float]:

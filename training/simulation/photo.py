@@ -23,6 +23,7 @@ from PIL import Image
 from cd_spectra_addon.core.spectra.cameras import CameraProfile
 from cd_spectra_addon.core.scene.capture import Scene
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.photo.images import LinearImage, load_photo
 from cd_spectra_addon.core.photo.srgb import srgb_encode
 
 FORMATS = ("exr", "png", "png16", "jpg", "jpg422", "heic", "heic10", "tiff16")
@@ -70,6 +71,19 @@ def upsample(image: NDArray[np.float64], factor: int) -> NDArray[np.float64]:
     if factor <= 1:
         return image
     return np.repeat(np.repeat(image, factor, axis=0), factor, axis=1)
+
+
+def read_rendered(path: str | os.PathLike[str], scene: Scene) -> LinearImage:
+    """A photo of ``scene``'s render (:func:`upsample`d, written as any file type) read back
+    through the product's decoders (``load_photo``: DNG via rawpy, HEIC, JPEG draft, ...) at the
+    rendered size, so the loader's draft/box reduction undoes :func:`upsample` and each loaded
+    pixel has the footprint the renderer integrated over, as a real camera's pixels do and as
+    training and tuning photos are read (``training.learning.dataset``). Not ``load_for_estimate``:
+    it reads any photo under its 1024-px preview whole, and a render below that, read whole, is
+    blocks of factor × factor equal pixels whose footprint the forward model takes for 1/factor
+    per side of what it is (tilted, offset and clipped captures then read worse; see
+    ``training.evaluation.evaluate.Photos.read``)."""
+    return load_photo(path, max_side=max(scene.preset.camera.image_size_px))
 
 
 def add_noise(image: NDArray[np.float64], noise: float, rng: np.random.Generator) -> NDArray[np.float64]:
