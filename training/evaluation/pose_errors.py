@@ -189,7 +189,11 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
         image = np.minimum(photo.add_noise(image, NOISE, np.random.default_rng(1000 + i)), 1.0)
         path = tmp / f"p{i}.jpg"
         photo.write_photo(path, image, "jpg", exif)
-        loaded = load_for_estimate(path, preset)  # the product's loader: the whole photo here (disc 800 px)
+        # the product's loader: the whole photo here (disc 800 px in its 1024 px preview), reduced to
+        # 512 px for a near-axis set-up (inverse/load.py); the truth is then the capture at that size
+        loaded = load_for_estimate(path, preset)
+        height, width = loaded.rgb.shape[:2]
+        scene = Scene(scene.preset.with_image_size(width, height), scene.pose)
         t0 = time.perf_counter()
         try:
             # the estimator's own pose stage, run here once so its fit can be compared with the truth
