@@ -340,3 +340,19 @@ def test_any_spd_gives_finite_json_or_a_reason(spd: np.ndarray, sigma: float) ->
         assert -1000 < data["cri_ra"] <= 100.0 + 1e-9 and 0.0 < data["tm30_rf"] <= 100.0 + 1e-9
     else:
         assert data["reason"]
+
+
+def test_a_figure_without_a_value_has_no_range():
+    """Two lines (425 and 610 nm) leave TM-30's hue bins empty: the estimate has no Rg, and its
+    range must not be made of the draws that have one (hypothesis found [88, …] around nothing)."""
+    spd = np.zeros(N_BANDS)
+    spd[16], spd[46] = 1.0, 4.0
+    data = result.rendition(spd, np.full(N_BANDS, 0.25) * spd.max(), samples=20)
+    json.dumps(data, allow_nan=False)
+    if data["defined"]:
+        for key in result.HEADLINE:
+            lo, hi = data["ranges"][key]
+            if data[key] is None:
+                assert lo is None and hi is None and key in data["too_wide"]
+            else:
+                assert lo <= data[key] <= hi

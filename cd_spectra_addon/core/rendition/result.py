@@ -202,6 +202,11 @@ def _range(draws: NDArray[np.float64], central: NDArray[np.float64], limit: floa
     hi = np.fmax(_quantile(ordered, count, INTERVAL_PERCENT[1] / 100), central)
     if ceiling is not None:
         hi = np.where(ceiling - central <= central - lo, np.fmax(hi, ceiling), hi)
+    # An estimate without a value (a hue bin it leaves empty) gets no range either, however many
+    # draws have one: fmin/fmax above would give a range around nothing (hypothesis found a
+    # two-line SPD whose Rg range was [88, …] with no Rg).
+    undefined = ~np.isfinite(central)
+    lo, hi = np.where(undefined, np.nan, lo), np.where(undefined, np.nan, hi)
     missing = count < 0.9 * draws.shape[0]
     wide = bool(np.any(missing) or np.any(~np.isfinite(hi - lo)) or np.any(hi - lo > limit))
     return lo, hi, wide
