@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.pose.self_consistency import ProfileGrid, SelfConsistency, footprint_v_span
+from cd_spectra_addon.core.pose.self_consistency import ProfileGrid, RayGeometry, SelfConsistency, footprint_v_span
 from cd_spectra_addon.core.scene import kernel
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.scene.relative_pose import apply_params, relative_pose
@@ -146,3 +146,36 @@ def test_derivatives_in_passes_are_those_of_one_pass(monkeypatch):
         assert np.array_equal(getattr(geo, name), getattr(geo1, name))
     for name in ("u", "v", "gain", "radius"):
         assert np.array_equal(getattr(geo.derivatives, name), getattr(geo1.derivatives, name))
+
+
+def test_a_capture_s_geometry_taken_for_some_rays_is_the_kernel_s_for_those_rays():
+    """RayGeometry.take (how one capture's lamp sizes and glint masks share one evaluation of
+    the kernel) gives, value for value, what the kernel gives the kept rays alone; and a
+    SelfConsistency handed the geometry costs a capture exactly as one that evaluates it."""
+    preset = load_preset("cd-default").with_image_size(128)
+    scene = Scene(preset, Pose(tilt_deg=(1.0, 0.5)))
+    rel = relative_pose(scene)
+    f = preset.camera.focal_px
+    rng = np.random.default_rng(5)
+    index = np.unique(rng.integers(0, 128 * 128, 3000))
+    rays = kernel.index_rays(index, (128, 128), f)
+    rays[::17, 2] *= -1.0  # some rays miss the disc's plane
+    whole = RayGeometry.of(rays, rel)
+    keep = rng.random(index.size) < 0.6
+    part = whole.take(keep)
+    alone = RayGeometry.of(rays[keep], rel)
+    assert not whole.hit.all() and np.array_equal(part.hit, alone.hit)
+    for name in ("points_c", "radius", "u", "v", "cos_i", "cos_o", "gain", "view_c", "radial_c"):
+        assert np.array_equal(getattr(part.geo, name), getattr(alone.geo, name))
+    image = photo.linear_photo(render_cube(scene), np.linspace(0.3, 1.0, 81), CAMERA)
+    values = (image / image.max()).reshape(-1, 3)[index]
+    grid = ProfileGrid.with_camera(300.0, 2500.0, 5.0, CAMERA.sensitivities, 3.0, 1.0)
+
+    def objective(**shared) -> SelfConsistency:
+        return SelfConsistency(values[keep], rays[keep], preset.disc, grid, lambda x: apply_params(rel, x),
+                               rel.distance_mm / f, **shared)
+
+    plain, given_part = objective(), objective(geometry=whole, subset=keep)
+    assert np.array_equal(plain.residuals_at(rel), given_part.residuals_at(rel))
+    moved = apply_params(rel, np.array([0.01, 0, 0, 0, 0, 0, 0, 0]))
+    assert np.array_equal(plain.residuals_at(moved), given_part.residuals_at(moved))  # another capture: evaluated

@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..scene.capture import Disc
-from ..scene.kernel import DERIVATIVE_CHUNK, camera_rays, diffraction_along
+from ..scene.kernel import DERIVATIVE_CHUNK, Diffraction, camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
 
@@ -273,6 +274,35 @@ def _profile_jacobian(values: NDArray[np.float64], fit: _Fit, grid: ProfileGrid,
     return np.concatenate(parts, axis=0)
 
 
+@dataclass(frozen=True)
+class RayGeometry:
+    """The kernel's answer for a fixed set of camera rays at one capture's disc and lamp: what
+    that capture's glint mask, each lamp size and each stage's residuals share (the lamp's size
+    only scales the lobe's visibility). Reused only for the exact same disc and lamp, so a cost
+    from it is the cost the kernel would give, bit for bit."""
+
+    centre: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    lamp: NDArray[np.float64]
+    hit: NDArray[np.bool_]  # over the rays
+    geo: Diffraction  # over the hits
+
+    @classmethod
+    def of(cls, rays: NDArray[np.float64], rel: RelativePose) -> "RayGeometry":
+        hit, geo = diffraction_along(rays, np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm)
+        return cls(np.array(rel.disc_centre_mm, dtype=np.float64), np.array(rel.disc_normal, dtype=np.float64),
+                   np.array(rel.lamp_mm, dtype=np.float64), hit, geo)
+
+    def matches(self, rel: RelativePose) -> bool:
+        return bool(np.array_equal(self.centre, rel.disc_centre_mm) and np.array_equal(self.normal, rel.disc_normal)
+                    and np.array_equal(self.lamp, rel.lamp_mm))
+
+    def take(self, keep: NDArray[np.bool_]) -> "RayGeometry":
+        """The same for the rays ``keep`` (a mask over the rays) only."""
+        return RayGeometry(self.centre, self.normal, self.lamp, self.hit[keep],
+                           self.geo.take(np.flatnonzero(keep[self.hit])))
+
+
 class SelfConsistency:
     """Residuals (and their Jacobian) of a fixed pixel sample as a function of the pose.
 
@@ -285,7 +315,8 @@ class SelfConsistency:
     def __init__(self, values: NDArray[np.float64], rays: NDArray[np.float64], disc: Disc, grid: ProfileGrid,
                  pose_of: Callable[[NDArray[np.float64]], RelativePose], edge_mm: float,
                  blur_v: float | NDArray[np.float64] = 0.0,
-                 sigma_param: int | None = None):
+                 sigma_param: int | None = None, geometry: RayGeometry | None = None,
+                 subset: NDArray[np.bool_] | None = None):
         self.values = np.asarray(values, dtype=np.float64)
         self.rays = rays
         self.disc = disc
@@ -296,12 +327,28 @@ class SelfConsistency:
         self.sigma_param = sigma_param
         self.norm = 1.0 / math.sqrt(max(float(np.sum(self.values ** 2)), 1e-300))
         self.evaluations = 0
+        # The caller's geometry at one capture, of these rays (or of rays these are the ``subset`` of):
+        # taken for these rays the first time that capture is asked for.
+        self._geometry, self._subset = geometry, subset
+
+    def _shared(self, rel: RelativePose) -> RayGeometry | None:
+        """The caller's geometry for these rays where ``rel`` is its capture exactly."""
+        g = self._geometry
+        if g is None or not g.matches(rel):
+            return None
+        if self._subset is not None:
+            self._geometry, self._subset = g.take(self._subset), None
+        return self._geometry
 
     def _pixels(self, rel: RelativePose, directions: NDArray[np.float64] | None = None, part: slice = slice(None)):
         """λ₁ and amplitude of the sample's pixels (those in ``part``), and with ``directions``
         what the Jacobian needs of the kernel there."""
-        hit, geo = diffraction_along(self.rays[part], np.zeros(3), rel.disc_centre_mm, rel.disc_normal, rel.lamp_mm,
-                                     directions=directions)
+        shared = self._shared(rel) if directions is None and part == slice(None) else None
+        if shared is not None:
+            hit, geo = shared.hit, shared.geo
+        else:
+            hit, geo = diffraction_along(self.rays[part], np.zeros(3), rel.disc_centre_mm, rel.disc_normal,
+                                         rel.lamp_mm, directions=directions)
         disc = self.disc
         sigma2 = rel.lobe_sigma ** 2
         blur_v2 = self.blur_v2[part] if self.blur_v2.ndim else self.blur_v2

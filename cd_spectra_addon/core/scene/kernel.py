@@ -160,6 +160,16 @@ class Diffraction:
         """exp(−v²/2σ²): how much of the lobe of a lamp of angular size σ reaches the eye."""
         return np.exp(-(self.v * self.v) / (2.0 * sigma * sigma))
 
+    def take(self, index: NDArray[np.intp]) -> "Diffraction":
+        """The coordinate at the points ``index`` only: what the kernel gives those points'
+        rays alone, value for value (every step is per point), without evaluating it again."""
+        fields = {f: np.take(getattr(self, f), index, axis=-1)
+                  for f in Diffraction.__dataclass_fields__ if f != "derivatives"}
+        d = self.derivatives
+        derivatives = None if d is None else Derivatives(
+            **{f: np.take(getattr(d, f), index, axis=0) for f in Derivatives.__dataclass_fields__})
+        return Diffraction(**fields, derivatives=derivatives)
+
 
 def _dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
     """Row-wise dot product of (…, 3) arrays (three multiplies: faster than einsum or sum)."""
