@@ -475,7 +475,7 @@ def _sized(best: _Fitted, problem_at, judge_at) -> _Fitted:
     """``best`` or the capture with another lamp size whose colour blur explains the photo
     better (:data:`SIZE_FACTORS`, judged by ``judge_at``'s cost), refined by LM (``problem_at``).
     The sizes share one evaluation of the geometry (``judge_at(capture, geometry)``): the disc
-    and lamp are the same, only the lobe's width changes (14 → 8 ms on a 24 MP photo)."""
+    and lamp are the same, only the lobe's width changes."""
     capture = best.capture
     judge = judge_at(capture)
     geometry = judge.geometry
