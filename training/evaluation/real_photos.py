@@ -24,6 +24,7 @@ shows. Refusals are reported with their message.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import time
@@ -34,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.inverse.estimate import AUTO, estimate_image, resolve_camera, resolved_model
 from cd_spectra_addon.core.inverse.joint import estimate_joint
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.batch import series_lenses
@@ -43,7 +44,7 @@ from cd_spectra_addon.core.photo.frames import frame_count, with_frame
 from cd_spectra_addon.core.planning.measured import Measurements, measured_preset
 from cd_spectra_addon.core.scene.capture import Preset, Scene
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
-from cd_spectra_addon.core.spectra.cameras import load_camera, DEFAULT_CAMERA
+from cd_spectra_addon.core.spectrum.model import SpectralModel
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from cd_spectra_addon.core.spectra.illuminants import planck_spd
 
@@ -123,6 +124,11 @@ def series_focal(path: Path, disc: str, frames: list[int]) -> float | None:
     return lenses.get(str(path))
 
 
+@functools.lru_cache(maxsize=1)
+def _model() -> SpectralModel | None:
+    return resolved_model("shipped")
+
+
 def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = None) -> FrameResult:
     """One frame through the product's loader, pose stage and estimate; ``focal_file_px`` the
     series' focal length where its outlines gave one (else the frame's own, as ``estimate``)."""
@@ -132,7 +138,10 @@ def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = 
     try:
         image = load_for_estimate(with_frame(path, frame), preset)
         focal = None if focal_file_px is None else focal_file_px / image.scale
-        posed = pose_photo(image, preset, load_camera(DEFAULT_CAMERA), focal_px=focal)
+        # The profile estimate picks for this file (no EXIF: the generic one) poses it, as in
+        # estimate_image: the pose fit's colour model and its size-from-colour depend on it.
+        camera, generic, _, _ = resolve_camera(AUTO, image, _model())
+        posed = pose_photo(image, preset, camera, generic_camera=generic, focal_px=focal)
         out.focal_source = "series outline" if focal is not None else posed.focal_source
         out.focal_px = float(posed.focal_px)
         out.image, out.fit = image, posed.fit
