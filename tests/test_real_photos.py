@@ -4,6 +4,7 @@ Kim's GIFs are not in the repo (no licence): these tests use stand-in GIFs and t
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -44,3 +45,23 @@ def test_a_frame_is_posed_with_the_camera_estimate_picks(tmp_path: Path, monkeyp
     assert generic and seen.get("generic_camera") is True
     assert seen["camera"].name == camera.name
     np.testing.assert_array_equal(seen["camera"].sensitivities, camera.sensitivities)
+
+
+@pytest.mark.slow
+def test_the_simulated_control_reads_kims_geometry_from_native_colours_not_from_a_palette() -> None:
+    """Kim's stated geometry at θ = 155° (frame 28), a 2900 K lamp, the generic camera: from the
+    camera-native colours the product reads a filament lamp (the issue's target: 2400–3400 K,
+    r ≥ 0.95 against the best Planck curve over 450–650 nm); the same photo through a 256-colour
+    palette reads far off, with its confidence near zero (measured: r 0.59, confidence ≤ 0.01)."""
+    images = real_photos.control_images(28, np.random.default_rng(0))
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for variant in ("native PNG", "native GIF"):
+            path = Path(tmp) / f"{variant.replace(' ', '-')}.{variant[-3:].lower()}"
+            images[variant].save(path)
+            results[variant] = real_photos.read_source(str(path), variant, "cd", 28, real_photos.CONTROL_FOCAL_PX)
+    native, palette = results["native PNG"], results["native GIF"]
+    assert native.read and palette.read, (native.refused, palette.refused)
+    assert native.cct_k is not None and 2400.0 <= native.cct_k <= 3400.0
+    assert native.planck_r >= 0.95
+    assert palette.planck_r < 0.9 and palette.confidence < 0.05
