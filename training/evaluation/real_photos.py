@@ -24,17 +24,18 @@ shows. Refusals are reported with their message.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from cd_spectra_addon.core.errors import CDSpectraError
-from cd_spectra_addon.core.inverse.estimate import estimate_image
+from cd_spectra_addon.core.inverse.estimate import AUTO, estimate_image, resolve_camera, resolved_model
 from cd_spectra_addon.core.inverse.joint import estimate_joint
 from cd_spectra_addon.core.inverse.load import load_for_estimate
 from cd_spectra_addon.core.inverse.batch import series_lenses
@@ -43,7 +44,8 @@ from cd_spectra_addon.core.photo.frames import frame_count, with_frame
 from cd_spectra_addon.core.planning.measured import Measurements, measured_preset
 from cd_spectra_addon.core.scene.capture import Preset, Scene
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
-from cd_spectra_addon.core.spectra.cameras import load_camera, DEFAULT_CAMERA
+from cd_spectra_addon.core.spectra.cameras import GENERIC_CAMERA
+from cd_spectra_addon.core.spectrum.model import SpectralModel
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from cd_spectra_addon.core.spectra.illuminants import planck_spd
 
@@ -123,16 +125,30 @@ def series_focal(path: Path, disc: str, frames: list[int]) -> float | None:
     return lenses.get(str(path))
 
 
+@functools.lru_cache(maxsize=1)
+def _model() -> SpectralModel | None:
+    return resolved_model("shipped")
+
+
 def read_frame(path: Path, disc: str, frame: int, focal_file_px: float | None = None) -> FrameResult:
     """One frame through the product's loader, pose stage and estimate; ``focal_file_px`` the
     series' focal length where its outlines gave one (else the frame's own, as ``estimate``)."""
+    return read_source(with_frame(path, frame), path.name, disc, frame, focal_file_px)
+
+
+def read_source(source: str, series: str, disc: str, frame: int, focal_file_px: float | None = None) -> FrameResult:
+    """:func:`read_frame` of the photo ``source`` (a file, or a GIF's frame) taken as Kim's
+    frame ``frame``: the simulated control's photos go the same way."""
     preset = kim_preset(disc, frame)
-    out = FrameResult(path.name, frame, theta_deg(frame), first_order_nm(Scene(preset)))
+    out = FrameResult(series, frame, theta_deg(frame), first_order_nm(Scene(preset)))
     t0 = time.perf_counter()
     try:
-        image = load_for_estimate(with_frame(path, frame), preset)
+        image = load_for_estimate(source, preset)
         focal = None if focal_file_px is None else focal_file_px / image.scale
-        posed = pose_photo(image, preset, load_camera(DEFAULT_CAMERA), focal_px=focal)
+        # The profile estimate picks for this file (no EXIF: the generic one) poses it, as in
+        # estimate_image: the pose fit's colour model and its size-from-colour depend on it.
+        camera, generic, _, _ = resolve_camera(AUTO, image, _model())
+        posed = pose_photo(image, preset, camera, generic_camera=generic, focal_px=focal)
         out.focal_source = "series outline" if focal is not None else posed.focal_source
         out.focal_px = float(posed.focal_px)
         out.image, out.fit = image, posed.fit
@@ -257,6 +273,104 @@ def _wavelength_rgb(lam: float) -> tuple[int, int, int]:
     return 255, 0, 0
 
 
+# --------------------------------------------------------------------------- the simulated control
+
+CONTROL_FRAMES = tuple(range(24, 34))  # θ 135–180°: the frames where the stated geometry has first order
+CONTROL_LAMP_K = 2900.0  # a filament lamp
+CONTROL_FOCAL_PX = 916.0  # cd1's lens from its outlines
+CONTROL_NOISE = 0.01  # per photo pixel, as the simulated benches
+# An in-camera rendering: white balance set to the lamp (what a camera's auto white balance does
+# under a filament lamp), a DSLR's standard saturation and contrast (camera_pipelines.TYPICAL's).
+CONTROL_STYLE = (CONTROL_LAMP_K, 0.1, 0.25, 1.0)
+CONTROL_VARIANTS = ("native PNG", "native GIF", "in-camera PNG", "in-camera GIF")
+
+
+def control_images(frame: int, rng: np.random.Generator) -> dict[str, Any]:
+    """Kim's frame ``frame`` as the simulator renders the stated geometry (750×625 px, focal
+    CONTROL_FOCAL_PX, a CONTROL_LAMP_K Planck lamp, the generic camera, 1 % noise), in each of
+    CONTROL_VARIANTS: the camera-native values as 8-bit sRGB codes (what the product's benches
+    read), those quantised to a 256-colour palette (median cut, Floyd–Steinberg dither, as a GIF
+    converter does), and an in-camera rendering of them (CONTROL_STYLE) as PNG and as GIF.
+    Returns Pillow images."""
+    from PIL import Image
+
+    from cd_spectra_addon.core.inverse.estimate import camera_for
+    from cd_spectra_addon.core.photo.srgb import srgb_encode
+    from training.simulation import photo
+    from training.simulation.camera_pipelines import InCameraStyle, pipeline_for, render_in_camera
+    from training.simulation.render_numpy import render_cube
+
+    preset = kim_preset("cd", frame)
+    cam = preset.camera
+    preset = replace(preset, camera=replace(
+        cam, focal_length_mm=CONTROL_FOCAL_PX * cam.sensor_width_mm / cam.image_size_px[0]))
+    scene = Scene(preset)
+    camera, _ = camera_for(GENERIC_CAMERA, _model())
+    meter = photo.track_mask(scene)
+    native, _ = photo.expose(photo.linear_photo(render_cube(scene, supersample=3), planck_spd(CONTROL_LAMP_K), camera),
+                             1.0, meter)
+    native = np.minimum(photo.add_noise(native, CONTROL_NOISE, rng), 1.0)
+    rendered = render_in_camera(native, pipeline_for(camera, InCameraStyle(*CONTROL_STYLE)), meter)
+    out = {}
+    for name, linear in (("native", native), ("in-camera", rendered)):
+        codes = np.rint(srgb_encode(np.clip(linear, 0.0, 1.0)) * 255.0).astype(np.uint8)
+        png = Image.fromarray(codes, "RGB")
+        out[f"{name} PNG"] = png
+        out[f"{name} GIF"] = png.quantize(colors=256, method=Image.Quantize.MEDIANCUT,
+                                          dither=Image.Dither.FLOYDSTEINBERG)
+    return out
+
+
+def simulated_control(frames: tuple[int, ...] = CONTROL_FRAMES) -> tuple[list[FrameResult], dict[str, JointResult]]:
+    """Each CONTROL_VARIANTS photo of ``frames`` read as Kim's frames are (:func:`read_source`,
+    the same preset, focal length and camera), and each variant's joint estimate: what the
+    product makes of this geometry when the colours are camera-native, and what a palette and
+    an in-camera rendering cost — the real frames differ from the model in both."""
+    import tempfile
+
+    rng = np.random.default_rng(0)
+    results: list[FrameResult] = []
+    joints: dict[str, JointResult] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for frame in frames:
+            for variant, im in control_images(frame, rng).items():
+                path = Path(tmp) / f"{variant.replace(' ', '-')}-{frame}.{variant[-3:].lower()}"
+                im.save(path)
+                results.append(read_source(str(path), variant, "cd", frame, CONTROL_FOCAL_PX))
+        for variant in CONTROL_VARIANTS:
+            joints[variant] = read_joint([r for r in results if r.series == variant], "cd")
+    return results, joints
+
+
+def control_report(results: list[FrameResult], joints: dict[str, JointResult]) -> list[str]:
+    lines = ["## Simulated control (the simulator, not photographs)", "",
+             f"Kim's stated geometry for frames {CONTROL_FRAMES[0]}–{CONTROL_FRAMES[-1]} rendered by the numpy twin "
+             f"at 750×625 px (focal {CONTROL_FOCAL_PX:.0f} px) with a {CONTROL_LAMP_K:.0f} K Planck lamp, the generic "
+             f"camera and {100 * CONTROL_NOISE:.0f} % noise, then read as the real frames are (same preset, focal "
+             "length and camera): *native* — the camera-native values as 8-bit sRGB codes, what the simulated "
+             "benches read; *GIF* — quantised to a 256-colour palette (median cut, Floyd–Steinberg); *in-camera* — "
+             f"white balance set to the lamp, saturation +{100 * CONTROL_STYLE[1]:.0f} %, contrast "
+             f"{100 * CONTROL_STYLE[2]:.0f} % (`training.simulation.camera_pipelines`). Frames not listed were "
+             "refused.", "",
+             "| variant | frames read | frame: CCT, r vs Planck (T), confidence | within target | joint: CCT, r (T), confidence; held |",
+             "|---|---|---|---|---|"]
+    for variant in CONTROL_VARIANTS:
+        rows = [r for r in results if r.series == variant]
+        read = [r for r in rows if r.read]
+        good = [r for r in read if r.cct_k is not None and TARGET_CCT_K[0] <= r.cct_k <= TARGET_CCT_K[1]
+                and r.planck_r >= TARGET_R]
+        per = "; ".join(f"{r.frame}: {'—' if r.cct_k is None else f'{r.cct_k:.0f} K'}, {r.planck_r:.2f} "
+                        f"({r.planck_t:.0f} K), {r.confidence:.2f}" for r in read) or "—"
+        j = joints.get(variant)
+        if j is None or j.refused:
+            joint = "refused" + (f": {j.refused[:100]}" if j is not None else "")
+        else:
+            joint = (f"{'—' if j.cct_k is None else f'{j.cct_k:.0f} K'}, {j.planck_r:.2f} ({j.planck_t:.0f} K), "
+                     f"{j.confidence:.2f}; {j.held_nm:.0f} nm")
+        lines.append(f"| {variant} | {len(read)} of {len(rows)} | {per} | {len(good)} | {joint} |")
+    return lines + [""]
+
+
 def report(results: list[FrameResult], joints: dict[str, JointResult], seconds: float) -> str:
     lines = ["# Real photographs: Kim 2023 (`make eval-real KIM_DIR=…`)", "",
              "`python -m training.evaluation.real_photos --kim-dir DIR`: every frame of Kim's `unwritten/cd1.gif` "
@@ -329,7 +443,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--out", default="bench/real_photos.md")
     ap.add_argument("--sheet", default="build/real_photos_sheet.png")
     ap.add_argument("--frames", default="", help="comma-separated frame numbers (default: all)")
+    ap.add_argument("--no-control", action="store_true", help="skip the simulated control")
+    ap.add_argument("--control-only", action="store_true",
+                    help="only the simulated control (needs no Kim files; prints, writes nothing)")
     args = ap.parse_args(argv)
+    if args.control_only:
+        print("\n".join(control_report(*simulated_control())))
+        return
     if not args.kim_dir:
         raise SystemExit("give the folder with Kim's cd1.gif and dvd1.gif: --kim-dir DIR or KIM_DIR=DIR "
                          "(github.com/yongwookkkkim/Diffraction-on-Optical-Disks, unwritten/)")
@@ -358,7 +478,8 @@ def main(argv: list[str] | None = None) -> None:
                                    f"frames {j.used}, CCT {j.cct_k and round(j.cct_k)} r={j.planck_r:.2f}"), flush=True)
         sheet = Path(args.sheet)
         contact_sheet(path, series, sheet.with_name(f"{sheet.stem}_{disc}{sheet.suffix}"))
-    text = report(results, joints, time.perf_counter() - t0)
+    control = [] if args.no_control else control_report(*simulated_control())
+    text = report(results, joints, time.perf_counter() - t0) + ("\n" + "\n".join(control) if control else "")
     Path(args.out).write_text(text + "\n")
     print(text)
 
