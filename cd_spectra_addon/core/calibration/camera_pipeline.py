@@ -37,7 +37,8 @@ from ..numerics.least_squares import levenberg_marquardt
 from ..photo.clipping import HIGH_CODE, LOW_CODE
 from ..photo.srgb import srgb_decode, srgb_encode, srgb_encode_slope
 
-__all__ = ["CameraPipeline", "PipelineFit", "fit_pipeline", "fit_pipeline_checked", "compress_gamut", "CURVE_KNOTS", "FAMILY", "GAMUTS", "LUMA", "TONES"]
+__all__ = ["CameraPipeline", "PipelineFit", "fit_pipeline", "fit_pipeline_checked", "compress_gamut", "CURVE_KNOTS",
+           "FAMILY", "GAMUTS", "LUMA", "TONES"]
 
 TONES = ("channel", "luminance")
 GAMUTS = ("clip", "compress")

@@ -41,12 +41,13 @@ PIPELINE_CAMERA_ROUNDS = 8
 # undone, this many times; the poses compete by how well the processing fitted on them explains
 # the shot (:attr:`.camera_pipeline.PipelineFit.rms_codes`), the lowest kept. Posed on the file's
 # tone-curved values alone, a CIE A JPEG (Canon profile, `typical` rendering, 192 px read from a
-# photo 2× or 4× that per side; noise draws 99–106) sometimes took a capture the photo's lines
-# seemed to pin, or a lamp too large (lobe σ 0.0036–0.0040 for 0.0030): its processing then
-# fitted 5.8–6.1 codes RMS (3.5–3.7 with the lamp too large) against 2.8–3.3 for the others, and
-# the estimates with it read MAE 0.04–0.12 against 0.01 (the three far-worse JPEG rows of
-# bench/camera_files.md were such a draw). Posed again, every draw fitted 2.8–3.2 codes and
-# read 0.007–0.013 (4 lamps); a second round changes little (±0.2 codes).
+# photo 2× or 4× that per side; noise draws 99–106) sometimes took a wrong capture: draw 99 put
+# the lamp 5 mm nearer the disc (205 for 210 mm, from a start its lines suggested), others the
+# lamp too large (lobe σ 0.0036–0.0040 for 0.0030). Its processing then fitted 5.8–6.1 codes RMS
+# (3.5–3.7 with the lamp too large) against 2.8–3.3 for the others (2.98 on the true capture),
+# and the estimates with it read MAE 0.04–0.12 against 0.01: the three far-worse JPEG rows of
+# bench/camera_files.md were that draw. Posed again, every draw fitted 2.8–3.2 codes and read
+# 0.007–0.013 (4 lamps); a second round changes little (±0.2 codes).
 POSE_ROUNDS = 2
 
 __all__ = ["POSE_ROUNDS", "Shot", "LampPhoto", "fit_calibration", "fit_shots", "gains_from_image", "measure_calibration",
