@@ -148,3 +148,25 @@ def test_the_bench_reports_the_median_and_the_worst_calibration_draw():
     assert line.endswith("| 0.1200 / 0.0010 / 0.90 (of 3) |") and "3 draws" in text
     once = camera_files.report([("files", row, base)], 30, 192, 1.0, {}, False, 1)
     assert next(ln for ln in once.splitlines() if ln.startswith(f"| {row.label} |")).endswith("| – |")
+
+
+@pytest.mark.parametrize("rms,kept", [((5.0, 4.8), 0), ((5.0, 3.0, 2.9), 1), ((6.0, 3.0, 2.0), 2)])
+def test_a_re_posed_round_is_kept_only_where_it_fits_clearly_better(monkeypatch, rms, kept):
+    """One shot: round k's pose replaces the one before only where its processing leaves at most
+    POSE_GAIN of that one's RMS (4.8 of 5.0 is noise, not a wrong pose); the rounds stop at the
+    first that is not clearly better. The pose fit and the processing fit are scripted here."""
+    from types import SimpleNamespace
+
+    from cd_spectra_addon.core.calibration.camera_pipeline import PipelineFit
+
+    assert 4.8 / 5.0 > calibration_shot.POSE_GAIN >= 3.0 / 5.0
+    fits = iter(rms)
+    pipe = pipeline_for(CAMERA, TYPICAL)
+    monkeypatch.setattr(calibration_shot, "_fit_processing",
+                        lambda shots, readings, *a, **k: PipelineFit(pipe, next(fits), 1000))
+    poses = iter(range(1, 10))
+    monkeypatch.setattr(calibration_shot, "_read", lambda *a, **k: SimpleNamespace(round=next(poses)))
+    first = SimpleNamespace(round=0, response=np.zeros((N_FEATURES, 3, 1)))
+    chosen, posed = calibration_shot._posed_on_processing([Shot(None, None)], [first], load_preset("cd-default"),
+                                                          CAMERA, False, [None])
+    assert posed[0].round == kept and chosen.rms_codes == rms[kept]
