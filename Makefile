@@ -113,9 +113,10 @@ eval: setup eval-camera-files eval-poses
 	$(PY) -m training.evaluation.model_card
 
 # Which file to shoot: EXR, TIFF, DNG, in-camera JPEG/HEIC with and without calibration, matched
-# vs generic profile, held-out cameras (simulated, 30 real lamps; a few minutes on one core).
+# vs generic profile, held-out cameras (simulated, 30 real lamps; the rows calibrated from one
+# in-camera CIE A shot over 3 draws of its noise; ~15 min on one core, then camera_renderings ~6 min).
 eval-camera-files: setup
-	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --out bench/camera_files.md
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --calibration-draws 3 --out bench/camera_files.md
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write
 
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of

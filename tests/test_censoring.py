@@ -186,5 +186,8 @@ def test_a_photo_processed_beyond_the_family_gets_a_calibration_that_says_so(tmp
             est = estimate_image(photo, preset=shooter.preset, calibration=cal, model=model)
             assert any("cannot explain its own photo" in w for w in est.warnings)
             assert est.confidence <= 0.6
+            assert est.to_json()["calibration_check"]["explains_its_photo"] is False  # the number travels
+            assert np.all(np.isfinite(est.spd)) and np.isfinite(est.confidence)  # poor, never NaN
+        assert np.isfinite(cal.metadata["processing_rms_codes"]) and cal.metadata["processing_rms_codes"] > 0
     assert flagged["phone"] is not None and "shoot RAW" in flagged["phone"]
     assert flagged["ordinary"] is None

@@ -37,7 +37,8 @@ from ..numerics.least_squares import levenberg_marquardt
 from ..photo.clipping import HIGH_CODE, LOW_CODE
 from ..photo.srgb import srgb_decode, srgb_encode, srgb_encode_slope
 
-__all__ = ["CameraPipeline", "fit_pipeline", "compress_gamut", "CURVE_KNOTS", "FAMILY", "GAMUTS", "LUMA", "TONES"]
+__all__ = ["CameraPipeline", "PipelineFit", "fit_pipeline", "fit_pipeline_checked", "compress_gamut", "CURVE_KNOTS",
+           "FAMILY", "GAMUTS", "LUMA", "TONES"]
 
 TONES = ("channel", "luminance")
 GAMUTS = ("clip", "compress")
@@ -176,6 +177,19 @@ def compress_gamut(display: NDArray[np.floating]) -> NDArray[np.float64]:
     return np.where(top > 1.0, out / np.maximum(top, 1e-12), out)
 
 
+@dataclass(frozen=True)
+class PipelineFit:
+    """A fitted pipeline and how well it explains the photo it was fitted from."""
+
+    pipeline: CameraPipeline
+    # RMS of the fit's residual (file value − model) over the fitted pixels' channels, in 8-bit
+    # codes of the sRGB-encoded file (a clipped channel counts only where the model crosses its
+    # bound): 8-bit rounding, sensor noise and JPEG leave ~2–3; a wrong pose of the shot or a
+    # processing outside the family leaves more (see calibration_shot.POSE_ROUNDS).
+    rms_codes: float
+    pixels: int
+
+
 def _curve(params: NDArray[np.float64]) -> NDArray[np.float64]:
     """Knot outputs from log increments: strictly increasing from 0."""
     return np.concatenate([[0.0], np.cumsum(np.exp(params))])
@@ -185,6 +199,14 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
                  weight: NDArray[np.floating] | None = None, low: NDArray[np.bool_] | None = None,
                  high: NDArray[np.bool_] | None = None,
                  family: tuple[tuple[str, str], ...] = FAMILY) -> CameraPipeline:
+    """:func:`fit_pipeline_checked`'s pipeline."""
+    return fit_pipeline_checked(observed, predicted, weight, low, high, family).pipeline
+
+
+def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.floating],
+                         weight: NDArray[np.floating] | None = None, low: NDArray[np.bool_] | None = None,
+                         high: NDArray[np.bool_] | None = None,
+                         family: tuple[tuple[str, str], ...] = FAMILY) -> PipelineFit:
     """The pipeline that best maps ``predicted`` camera-native RGB (N, 3), known up to one scale,
     to the ``observed`` loaded file values (N, 3) of the same pixels.
 
@@ -194,6 +216,7 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
     only penalise a model that comes out above the floor's code / below the full-scale code.
     ``family``: the members (tone, gamut) tried besides the per-channel, clipping one (a
     calibration that refits the same photo keeps the member it chose first).
+    Returns it with the RMS it leaves on these pixels (:class:`PipelineFit`).
     Refuses (CDSpectraError) when too few pixels carry light to fit 9 + K parameters."""
     obs = np.asarray(observed, np.float64).reshape(-1, 3)
     pred = np.asarray(predicted, np.float64).reshape(-1, 3)
@@ -263,6 +286,13 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
     x, cost, _ = levenberg_marquardt(residual, x0, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
     best = CameraPipeline(x[:9].reshape(3, 3), knots, _curve(x[9:]))
 
+    def rms_codes(r: NDArray[np.float64], rows: int) -> float:
+        """The data part of a residual vector (the first 3 × rows entries) as an RMS in 8-bit codes."""
+        data = r[:3 * rows]
+        return float(255.0 * np.sqrt(np.mean(data * data)))
+
+    best_rms = rms_codes(residual(x), n)
+
     # The wider family, from the same start: a curve on luminance (hue-preserving contrast),
     # gamut compression instead of clipping. Another member is kept only where it explains the
     # photo clearly better. Forward differences (these couple the three channels) on a subset
@@ -296,4 +326,5 @@ def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating]
                                             tol=FAMILY_TOLERANCE)
         if cost_l < (FAMILY_GAIN if len(family) > 1 else 1.0) * best_cost:
             best, best_cost = CameraPipeline(xl[:9].reshape(3, 3), knots, _curve(xl[9:]), tone, gamut), cost_l
-    return best
+            best_rms = rms_codes(family_residual(xl, tone, gamut), sub.size)
+    return PipelineFit(best, best_rms if np.isfinite(best_rms) else float("inf"), int(n))

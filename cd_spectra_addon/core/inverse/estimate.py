@@ -28,7 +28,8 @@ from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
 from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
                      spectrum)
-from ..calibration.calibration import POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_warning, load_calibration
+from ..calibration.calibration import (POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_check,
+                                       calibration_warning, load_calibration)
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from ..scene.capture import DEFAULT_PRESET, Preset, Scene, load_preset
@@ -377,7 +378,8 @@ def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, wa
         extra={"physics_spd": [float(v) for v in e_phys / e_phys.max()], "focal_px_source": analysis.focal_source,
                "lobe_sigma": float(analysis.scene.preset.light.lobe_sigma), "checks": stats,
                "image_size_px": [width, height],
-               "ring_center_px": list(image.to_original(*analysis.fit.ring_center_px))},
+               "ring_center_px": list(image.to_original(*analysis.fit.ring_center_px)),
+               **({} if calibration is None else {"calibration_check": calibration_check(calibration)})},
         wavelength_nm=WAVELENGTHS_NM.copy(),
     )
 
