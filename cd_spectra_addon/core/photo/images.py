@@ -645,11 +645,11 @@ def _channel_max(x: NDArray[Any]) -> NDArray[Any]:
     return out
 
 
-def _bands(pixels: Pixels, box: int, parts: int = 1, limit: int = BAND_PIXELS) -> list[tuple[int, int]]:
-    """Row bands of whole boxes, each at most ``limit`` codes wide × tall, and at least
-    ``parts`` of them where the image has the rows."""
+def _bands(pixels: Pixels, box: int, parts: int = 1) -> list[tuple[int, int]]:
+    """Row bands of whole boxes, each at most :data:`BAND_PIXELS` codes wide × tall, and at
+    least ``parts`` of them where the image has the rows (one per worker)."""
     rows = pixels.height // box * box
-    step = box * max(1, min(limit // max(1, pixels.width * box), _ceil_div(rows // box, parts)))
+    step = box * max(1, min(BAND_PIXELS // max(1, pixels.width * box), _ceil_div(rows // box, parts)))
     return [(y, min(y + step, rows)) for y in range(0, rows, step)]
 
 
@@ -706,9 +706,7 @@ def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
         return int(top.max())
 
     workers = _workers(pixels)
-    # Two bands per worker (rows vary in cost), each 1/workers as large: the bands in flight
-    # together hold no more memory than one band did on one thread.
-    bands = _bands(pixels, box, 2 * workers if workers > 1 else 1, BAND_PIXELS // workers)
+    bands = _bands(pixels, box, 2 * workers if workers > 1 else 1)  # two bands each: rows vary in cost
     if workers > 1 and len(bands) > 1:  # bands write disjoint rows: the result is the same bit for bit
         with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="cd-spectra-linearise") as pool:
             peak = max(pool.map(band, bands))
