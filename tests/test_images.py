@@ -375,32 +375,6 @@ def test_box_average_is_in_linear_light(tmp_path):
     np.testing.assert_allclose(li.rgb, 0.5, atol=1e-6)  # averaging codes would give srgb_decode(0.5) ≈ 0.21
 
 
-@pytest.mark.parametrize("fmt,bits", [("JPEG", 8), ("PNG", 16)])
-def test_bands_linearised_on_two_threads_are_the_one_thread_result(tmp_path, monkeypatch, fmt, bits):
-    """A large integer image is linearised in bands on two threads: the same pixels, clip flags
-    and black check as one thread, bit for bit, with a saturated spot and a row count that is
-    no multiple of the band."""
-    rng = np.random.default_rng(11)
-    if bits == 8:
-        codes = rng.integers(0, 240, (1203, 1001, 3)).astype(np.uint8)
-        codes[700:705, 300:320] = 255
-        data = pil_bytes(codes, fmt, quality=95)
-    else:
-        codes = rng.integers(0, 60000, (1203, 1001, 3)).astype(np.uint16)
-        codes[700:705, 300:320] = 65535
-        data = png16(codes)
-    path = put(tmp_path / f"big.{fmt.lower()}", data)
-    assert images._workers(images.Pixels(1001, 1203, 3, bits, 1, None, None)) == (2 if (os.cpu_count() or 1) >= 2 else 1)
-    monkeypatch.setattr(images, "_workers", lambda pixels: 2)
-    for side in (1203, 600, 300):
-        two = load_photo(path, max_side=side)
-        monkeypatch.setattr(images, "_workers", lambda pixels: 1)
-        one = load_photo(path, max_side=side)
-        monkeypatch.setattr(images, "_workers", lambda pixels: 2)
-        assert np.array_equal(one.rgb, two.rgb) and np.array_equal(one.saturated, two.saturated)
-        assert one.saturated.any()
-
-
 # --- saturation ----------------------------------------------------------------------------
 
 

@@ -108,7 +108,6 @@ SATURATION_8BIT = 250
 SATURATION_16BIT = 65000
 BLACK_LEVEL = 1e-3  # brightest linear value (of full scale) below which an integer photo is black
 BAND_PIXELS = 1_000_000
-PARALLEL_PIXELS = 500_000  # an integer image at least this large is linearised on two threads (see _workers)
 CLIP_EPS = 1e-3
 CLIP_MIN_COUNT = 8
 CLIP_RATIO = 4
@@ -645,19 +644,10 @@ def _channel_max(x: NDArray[Any]) -> NDArray[Any]:
     return out
 
 
-def _bands(pixels: Pixels, box: int, parts: int = 1) -> list[tuple[int, int]]:
-    """Row bands of whole boxes, each at most :data:`BAND_PIXELS` codes wide × tall, and at
-    least ``parts`` of them where the image has the rows (one per worker)."""
+def _bands(pixels: Pixels, box: int) -> list[tuple[int, int]]:
     rows = pixels.height // box * box
-    step = box * max(1, min(BAND_PIXELS // max(1, pixels.width * box), _ceil_div(rows // box, parts)))
+    step = box * max(1, BAND_PIXELS // max(1, pixels.width * box))
     return [(y, min(y + step, rows)) for y in range(0, rows, step)]
-
-
-def _workers(pixels: Pixels) -> int:
-    """Threads that linearise an integer image's bands: two where there are two cores and the
-    image is large enough to pay for them (numpy's look-ups and sums release the GIL). A 24 MP
-    JPEG's 1/4 draft (1.5 MP) linearised in two halves side by side: load 67 → 56 ms."""
-    return 2 if (os.cpu_count() or 1) >= 2 and pixels.width * pixels.height >= PARALLEL_PIXELS else 1
 
 
 def _linearise(pixels: Pixels, box: int, header: PhotoHeader, name: str, transfer: str) -> LinearImage:
@@ -692,26 +682,16 @@ def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
     h, w, c = pixels.height // box, pixels.width // box, pixels.channels
     rgb = np.empty((h, w, c), np.float32)
     saturated = np.empty((h, w), bool)
+    peak = 0
     inv = np.float32(1.0 / (box * box))
-
-    def band(rows_span: tuple[int, int]) -> int:
-        """Linearise and reduce one band of rows into ``rgb``/``saturated``; its largest code."""
-        y0, y1 = rows_span
+    for y0, y1 in _bands(pixels, box):
         codes = pixels.read(y0, y1)[:, : w * box]
         top = _channel_max(codes)
+        peak = max(peak, int(top.max()))
         rows = slice(y0 // box, y1 // box)
         saturated[rows] = _box_any(top >= threshold, box)
-        out = _linear_box_sum(codes, lut, box, srgb) if pixels.bits == 8 else _box_sum(lut[codes], box)
-        rgb[rows] = out * inv if box > 1 else out
-        return int(top.max())
-
-    workers = _workers(pixels)
-    bands = _bands(pixels, box, 2 * workers if workers > 1 else 1)  # two bands each: rows vary in cost
-    if workers > 1 and len(bands) > 1:  # bands write disjoint rows: the result is the same bit for bit
-        with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="cd-spectra-linearise") as pool:
-            peak = max(pool.map(band, bands))
-    else:
-        peak = max(band(b) for b in bands)
+        band = _linear_box_sum(codes, lut, box, srgb) if pixels.bits == 8 else _box_sum(lut[codes], box)
+        rgb[rows] = band * inv if box > 1 else band
     if lut[peak] < BLACK_LEVEL:
         raise PhotoError(f"{name}: photo is black — no light reached the camera")
     return rgb, saturated, np.zeros((h, w), bool)
