@@ -67,7 +67,7 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
         scene.disc_normal, scene.preset.disc.medium_index, scene.preset.light.intensity,
         view_directions=samples.view)
     optics = grating.GratingOptics(scene.preset.disc, scene.preset.light.lobe_sigma)
-    footprint = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM).summed(owner, rep.size)
+    footprint = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM, tabulated=True).summed(owner, rep.size)
     footprint /= dr.size  # missing samples count as black, as in the photo
     per_unit = footprint / px.amplitude[rep, None]
     sub_response = np.zeros((n_sub, n_bands))
