@@ -945,3 +945,20 @@ def test_blender_fallback_reads_float_tiff(tmp_path, blender_decoder):
     li = load_photo(put(tmp_path / "float.tif", tiff(values)))
     assert li.encoding == "linear-float"
     np.testing.assert_allclose(li.rgb, values, rtol=1e-6)
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 4])
+@pytest.mark.parametrize("srgb", [True, False])
+def test_linear_box_sum_is_the_box_sum_of_the_linear_codes(k: int, srgb: bool) -> None:
+    """The loader's reduction: 8-bit codes linearised and summed over k×k blocks — bit for bit
+    the box sum of the linearised image (rows then columns, ascending), and the block sum to
+    float32 rounding."""
+    from cd_spectra_addon.core.photo import images as I
+
+    codes = np.random.default_rng(k).integers(0, 256, (6 * k, 10 * k, 3), dtype=np.uint8)
+    lut = I._lut(8, srgb)
+    got = I._linear_box_sum(codes, lut, k, srgb)
+    assert got.shape == (6, 10, 3) and got.dtype == np.float32
+    assert np.array_equal(got, I._box_sum(lut[codes], k))
+    blocks = lut[codes].astype(np.float64).reshape(6, k, 10, k, 3).sum(axis=(1, 3))
+    np.testing.assert_allclose(got, blocks, rtol=4e-7 * k * k, atol=0)

@@ -586,11 +586,17 @@ def _box_sum(x: NDArray[Any], k: int) -> NDArray[Any]:
     k² strided adds: ~10× faster than ``reshape(h, k, w, k, c).sum(axis=(1, 3))`` here."""
     if k == 1:
         return x
-    rows = x[0::k].copy()
-    for i in range(1, k):
+    rows = x[0::k] + x[1::k]  # the first add makes the array: no copy pass before it
+    for i in range(2, k):
         rows += x[i::k]
-    out = rows[:, 0::k].copy()
-    for j in range(1, k):
+    return _column_sum(rows, k)
+
+
+def _column_sum(rows: NDArray[Any], k: int) -> NDArray[Any]:
+    """Σ_j rows[:, j::k], added in ascending j like copy-then-add but one pass fewer (the strided
+    copy of a 24 MP JPEG's 1/4 draft, box 2, cost as much as its add: 13.8 -> 7.9 ms a load)."""
+    out = rows[:, 0::k] + rows[:, 1::k]
+    for j in range(2, k):
         out += rows[:, j::k]
     return out
 
@@ -614,10 +620,7 @@ def _linear_box_sum(codes: NDArray[np.uint8], lut: NDArray[np.float32], k: int, 
     rows = _pair_lut(srgb)[pair]
     for i in range(2, k):
         rows += lut[codes[i::k]]
-    out = rows[:, 0::k].copy()
-    for j in range(1, k):
-        out += rows[:, j::k]
-    return out
+    return _column_sum(rows, k)
 
 
 def _box_any(x: NDArray[np.bool_], k: int) -> NDArray[np.bool_]:
@@ -691,7 +694,10 @@ def _reduce_int(pixels: Pixels, box: int, srgb: bool, name: str) -> _Reduced:
         rows = slice(y0 // box, y1 // box)
         saturated[rows] = _box_any(top >= threshold, box)
         band = _linear_box_sum(codes, lut, box, srgb) if pixels.bits == 8 else _box_sum(lut[codes], box)
-        rgb[rows] = band * inv if box > 1 else band
+        if box > 1:
+            np.multiply(band, inv, out=rgb[rows])  # into place: one pass fewer than a product then a copy
+        else:
+            rgb[rows] = band
     if lut[peak] < BLACK_LEVEL:
         raise PhotoError(f"{name}: photo is black — no light reached the camera")
     return rgb, saturated, np.zeros((h, w), bool)
