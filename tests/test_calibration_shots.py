@@ -15,7 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cd_spectra_addon.core.calibration.calibration import fit_gains, unexplained_share
+from cd_spectra_addon.core.calibration.calibration import (CROSS_CHECK_LIMIT, POOR_CALIBRATION_CONFIDENCE,
+                                                           calibration_check, calibration_warning, fit_gains,
+                                                           unexplained_share)
 from cd_spectra_addon.core.calibration.camera_fit import camera_prior, fit_sensitivities
 from cd_spectra_addon.core.errors import CDSpectraError, NoDiscError
 from cd_spectra_addon.core.inverse.calibration_shot import LampPhoto, Shot, fit_calibration, fit_shots, measure_shots
@@ -173,6 +175,38 @@ def test_measured_profiles_name_every_shot(tmp_path, capture):
     assert [s["reference"] for s in cal.metadata["shots"]] == ["Household bulb (CIE A)", "D65"]
     assert cal.metadata["photo"] == f"{paths[0]} + {paths[1]}" and cal.pipeline is None
     assert 0 <= cal.metadata["unexplained"] < 0.05 and np.all(np.isfinite(cal.gains))
+    # Each known lamp read with the calibration the other gives: a raw file carries over.
+    checks = cal.metadata["cross_check"]
+    assert [c["held_out"] for c in checks] == ["Household bulb (CIE A)", "D65"]
+    assert all(0 <= c["mae_400_700"] < CROSS_CHECK_LIMIT and c["from"] == 1 for c in checks), checks
+    report = calibration_check(cal)
+    assert report["reads_other_lamps"] is True and report["cross_check"] == checks
+    assert calibration_warning(cal) is None
+    one = measure_shots([LampPhoto(paths[0], CIE_A, "bulb")], "one", scene.preset.name, DEFAULT_CAMERA)
+    assert "cross_check" not in one.metadata and "cross_check" not in calibration_check(one)
+
+
+def test_a_calibration_that_does_not_carry_over_to_its_other_lamp_says_so(tmp_path, capture):
+    """The user says the second photo is daylight, but a warm LED lit it: each shot fits its own
+    gains, yet read with the bulb's calibration the 'daylight' photo is far from D65, and the
+    calibration says so (every estimate with it warns, at lower confidence)."""
+    scene = capture[0]
+    led = peak_normalise(0.25 * np.exp(-0.5 * ((LAM - 450) / 10) ** 2) + np.exp(-0.5 * ((LAM - 600) / 50) ** 2))
+    paths = [_shoot(tmp_path / "bulb.png", capture, CIE_A, seed=1), _shoot(tmp_path / "sky.png", capture, led, seed=2)]
+    cal = measure_shots([LampPhoto(paths[0], CIE_A, "bulb"), LampPhoto(paths[1], D65, "daylight")], "mislabelled",
+                        scene.preset.name, DEFAULT_CAMERA)
+    daylight = [c for c in cal.metadata["cross_check"] if c["held_out"] == "daylight"][0]
+    assert daylight["mae_400_700"] > CROSS_CHECK_LIMIT
+    assert calibration_check(cal)["reads_other_lamps"] is False
+    warning = calibration_warning(cal)
+    assert warning and "mislabelled" in warning and "shoot RAW" in warning
+    image = load_photo(_shoot(tmp_path / "target.png", capture, CIE_A, seed=3))
+    est = estimate_image(image, preset=scene.preset, camera=DEFAULT_CAMERA, calibration=cal, model=None,
+                         method="physics")
+    clean = estimate_image(image, preset=scene.preset, camera=DEFAULT_CAMERA, calibration=None, model=None,
+                           method="physics")
+    assert warning in est.warnings and est.confidence <= POOR_CALIBRATION_CONFIDENCE * clean.confidence + 1e-9
+    assert est.extra["calibration_check"]["reads_other_lamps"] is False
 
 
 @pytest.mark.slow  # end to end: 4 calibrations and 8 estimates against the truth (~15 s)

@@ -241,6 +241,9 @@ def test_calibrate_from_a_bulb_and_a_second_lamp(tmp_path: Path, incandescent_ph
     assert data["shots"][0]["reference"] == "Household bulb (CIE A)"
     assert data["shots"][1]["reference"].endswith("(lamp.csv)")
     assert np.all(np.isfinite(data["gains"])) and data["unexplained"] < 0.05
+    # Each lamp read with the calibration the other gives, said on the command line and kept.
+    assert [c["held_out"] for c in data["cross_check"]] == [s["reference"] for s in data["shots"]]
+    assert "cross-check, each known lamp read with the calibration the others give" in proc.stdout
 
 
 # --- compare --------------------------------------------------------------------------------------

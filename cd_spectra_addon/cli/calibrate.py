@@ -75,7 +75,7 @@ def _lamp(kind: str, value: Any) -> tuple[Any, str]:
 
 
 def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    from ..core.calibration.calibration import calibration_warning, load_calibration
+    from ..core.calibration.calibration import calibration_warning, cross_check_summary, load_calibration
     from ..core.inverse.calibration_shot import LampPhoto, calibrate_photos
     from ..core.photo.frames import split_frame
 
@@ -106,7 +106,11 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         named = any(str(p) in message for p in args.photos)
         raise UsageError(message if named or len(args.photos) > 1 else _about(args.photos[0], exc)) from exc
     out(f"wrote calibration {args.name!r} to {path}")
-    poor = calibration_warning(load_calibration(path))
+    made = load_calibration(path)
+    checked = cross_check_summary(made)
+    if checked:
+        out(checked)
+    poor = calibration_warning(made)
     if poor:
         out(f"warning: {poor}")
     out(f"use it with: estimate PHOTO --calibration {path.stem}")

@@ -26,7 +26,8 @@ from ..spectra.cameras import GENERIC_CAMERA, CameraProfile
 from ..scene.capture import DEFAULT_PRESET, Preset, load_preset
 from ..errors import CDSpectraError, NoDiscError
 from .load import load_for_estimate
-from .estimate import AUTO, camera_prior_for, resolve_camera
+from .estimate import AUTO, camera_prior_for, estimate_image, resolve_camera, resolved_model
+from ..spectra.colour import compare_spds
 from ..readout.forward_matrix import feature_matrix
 from ..photo.clipping import clipped_channels
 from ..photo.images import LinearImage
@@ -58,8 +59,8 @@ PIPELINE_CAMERA_ROUNDS = 8
 POSE_ROUNDS = 2
 POSE_GAIN = 0.88
 
-__all__ = ["POSE_ROUNDS", "POSE_GAIN", "Shot", "LampPhoto", "fit_calibration", "fit_shots", "gains_from_image",
-           "measure_calibration",
+__all__ = ["POSE_ROUNDS", "POSE_GAIN", "Shot", "LampPhoto", "fit_calibration", "fit_shots", "calibrate_shots",
+           "cross_check", "gains_from_image", "measure_calibration",
            "measure_shots", "calibrate_photo", "calibrate_photos"]
 
 
@@ -277,6 +278,50 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
     return Calibration(name, gains, preset.name, camera.name, meta, fitted, sensitivities), analyses
 
 
+def calibrate_shots(shots: Sequence[Shot], preset: Preset, camera: str, model: Any, name: str = "calibration",
+                    metadata: dict[str, Any] | None = None, labels: Sequence[str] = ()
+                    ) -> tuple[Calibration, list[Reading]]:
+    """What ``calibrate`` makes of loaded shots: the camera resolved as an estimate resolves it
+    (``camera`` a profile name or "auto"; for the generic profile its sensitivities are fitted),
+    :func:`fit_shots`, and with two or more known lamps the leave-one-out :func:`cross_check`
+    (``labels`` name the lamps), stored as the calibration's ``cross_check``."""
+    if not shots:
+        raise CDSpectraError("a calibration needs at least one photo of a known lamp")
+    cam, generic, _, _ = resolve_camera(camera, shots[0].image, model)
+    prior = camera_prior_for(model) if generic else None
+    cal, analyses = fit_shots(shots, preset, cam, generic, prior=prior, name=name, metadata=metadata)
+    if len(shots) > 1:
+        cal.metadata["cross_check"] = cross_check(shots, preset, cam, generic, prior, camera, model, labels)
+    return cal, analyses
+
+
+def cross_check(shots: Sequence[Shot], preset: Preset, cam: CameraProfile, generic: bool,
+                prior: CameraPrior | None, camera: str, model: Any, labels: Sequence[str] = ()
+                ) -> list[dict[str, Any]]:
+    """Each known lamp read with the calibration the others give, as a later photo is read
+    (:func:`estimate_image`), against its known SPD: whether the calibration's model of the
+    camera carries over to a lamp it was not fitted on. A calibration explains its own photo by
+    construction (a tone curve, gains per bin), so only another lamp can show that it learned
+    the lamp instead of the camera. One entry per shot: ``held_out``, ``mae_400_700`` and
+    ``delta_uv_prime``, or ``error`` where the others alone could not calibrate or read it."""
+    out: list[dict[str, Any]] = []
+    n = len(shots)
+    for k, shot in enumerate(shots):
+        label = labels[k] if k < len(labels) else f"lamp {k + 1}"
+        others = [s for j, s in enumerate(shots) if j != k]
+        try:
+            held_cal, _ = fit_shots(others, preset, cam, generic, prior=prior, name=f"without {label}")
+            est = estimate_image(shot.image, preset=preset, camera=camera, calibration=held_cal, model=model,
+                                 rendition=False)
+        except CDSpectraError as exc:
+            out.append({"held_out": label, "error": str(exc)})
+            continue
+        m = compare_spds(est.spd, shot.spd)
+        out.append({"held_out": label, "mae_400_700": round(float(m["mae_400_700"]), 4),
+                    "delta_uv_prime": round(float(m["delta_uv_prime"]), 5), "from": n - 1})
+    return out
+
+
 def fit_calibration(image: LinearImage, reference_spd: NDArray[np.float64], preset: Preset, camera: CameraProfile,
                     generic_camera: bool = False, pipeline: bool | None = None, prior: CameraPrior | None = None,
                     name: str = "calibration", metadata: dict[str, Any] | None = None
@@ -308,6 +353,13 @@ def _model_if_needed(camera: str) -> Any:
     return None
 
 
+def _shipped_or_none() -> Any:
+    try:
+        return resolved_model("shipped")
+    except CDSpectraError:
+        return None
+
+
 def _load(path: str | Path, preset: Preset, n: int) -> LinearImage:
     """A calibration photo loaded as an estimate loads it; with several, a refusal names the file."""
     try:
@@ -334,12 +386,14 @@ def measure_shots(photos: Sequence[LampPhoto], name: str, preset: str = DEFAULT_
     preset_obj = load_preset(preset)
     images = [_load(p.path, preset_obj, n) for p in photos]  # read as the later photos will be
     model = _model_if_needed(camera)
-    cam, generic, camera, _ = resolve_camera(camera, images[0], model)
-    prior = camera_prior_for(model) if generic else None
+    _, _, camera, _ = resolve_camera(camera, images[0], model)
     lamps = [p.lamp or "reference SPD" for p in photos]
     metadata = new_metadata(" + ".join(str(p.path) for p in photos), " + ".join(lamps))
-    cal, analyses = fit_shots([Shot(image, p.spd) for image, p in zip(images, photos)], preset_obj, cam, generic,
-                              prior=prior, name=name, metadata=metadata)
+    if n > 1 and model is None:  # the cross-check reads each lamp as an estimate will: with the shipped model
+        model = _shipped_or_none()
+    cal, analyses = calibrate_shots([Shot(image, p.spd) for image, p in zip(images, photos)], preset_obj, camera,
+                                    model, name=name, metadata=metadata,
+                                    labels=[p.lamp or str(p.path) for p in photos])
     cal.metadata["rainbow_contrast"] = float(min(a.fit.rainbow_contrast for a in analyses))
     cal.metadata["shots"] = [{"photo": str(p.path), "reference": lamp,
                               "rainbow_contrast": round(float(a.fit.rainbow_contrast), 4)}
