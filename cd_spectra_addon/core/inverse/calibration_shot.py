@@ -182,7 +182,8 @@ def _fit_processing(shots: Sequence[Shot], readings: Sequence[Reading], camera: 
 def _posed_on_processing(shots: Sequence[Shot], firsts: list[Reading], preset: Preset, camera: CameraProfile,
                          generic_camera: bool, refs: Sequence[NDArray[np.float64]]
                          ) -> tuple[PipelineFit, list[Reading]]:
-    """The first shot's processing and the shots' poses to calibrate with.
+    """The first shot's processing and the shots' poses to calibrate with (``firsts[0]``: the
+    first shot read on its file's values).
 
     One shot: the pose found on the file's values, and its processing; then, up to
     :data:`POSE_ROUNDS` times, the shot posed again on its values with that processing undone
@@ -230,8 +231,14 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
     n = len(shots)
     refs = [_check_reference(s.spd, _label(s.image, k, n) if n > 1 else "") for k, s in enumerate(shots)]
     _check_alike(shots, pipeline)
-    firsts = [_read(s, k, n, preset, camera, generic_camera) for k, s in enumerate(shots)]
     processed = shots[0].image.processed if pipeline is None else pipeline
+    # In-camera files: only the first is read on the file's values; the others are read with its
+    # processing undone (as later photos are), which is all the calibration uses of them. Read as
+    # found as well, each cost a pose fit, and a phone's D65 JPEG (generic profile, the
+    # calibration's typical rendering, 192 px) lost its rainbow there and refused the calibration
+    # over a reading it never used. (That pair is still refused, later: its processing fit finds
+    # the bulb's colours unlike CIE A.)
+    firsts = [_read(s, k, n, preset, camera, generic_camera) for k, s in enumerate(shots[:1] if processed else shots)]
     basis, chosen = None, None
     if processed:
         # Several in-camera files: each is posed again on its values with the first's processing
