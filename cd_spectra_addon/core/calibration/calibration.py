@@ -143,6 +143,11 @@ def fit_gains(measured: NDArray[np.float64], valid: NDArray[np.bool_], predicted
         gains = smoothed(rel)
         rel = [float(np.sum(y) / max(float(np.sum(np.where(st, gains * q, 0.0))), 1e-300))
                for y, q, st in zip(ys, qs, strongs)]
+        if not all(math.isfinite(r) and r > 0 for r in rel):
+            # Undone values whose sum over a shot's bright bins is not positive (a processing fit
+            # gone wrong): its brightness has no logarithm, and NaN gains would follow.
+            raise CDSpectraError("a calibration photo reads no light where its known lamp is bright once its "
+                                 "processing is undone: the fitted model of the camera does not fit these photos")
         mean = float(np.exp(np.mean(np.log(rel))))  # only ratios are measured; dark bins stay at 1
         rel = [r / mean for r in rel]
     gains = np.where(strong_any, smoothed(rel), 1.0)

@@ -256,20 +256,33 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
     # With both to fit, alternately: the processing fitted against the generic camera's colours
     # bends its tone curve to absorb their error, which the camera's own fitted sensitivities
     # then undo round by round (see PIPELINE_CAMERA_ROUNDS).
+    # A round that fails after the first keeps the round before it: a phone's CIE A + D65 JPEGs
+    # (generic profile, the calibration's typical rendering, 95 % of the rainbow's pixels with a
+    # clipped channel) drifted round by round until the bulb's undone values came out negative and
+    # the calibration was refused as "is it the right lamp?" (see ``rounds`` in the metadata).
+    rounds, previous = 0, None
     for _ in range(PIPELINE_CAMERA_ROUNDS if processed and prior is not None else 1):
-        if processed:
-            if n == 1 and fitted is None and chosen is not None:
-                fit_check = chosen  # the first shot's processing on its poses: already fitted
-            else:
-                fit_check = _fit_processing(shots, firsts, own, refs, fitted, basis)
-            fitted = fit_check.pipeline
-            undo = _undo(fitted, preset, camera, firsts[0].response.shape[0])
-            analyses = [read_photo(s.image, preset, camera, generic_camera=generic_camera, calibration=undo,
-                                   fit=first.fit, known_spd=ref) for s, first, ref in zip(shots, firsts, refs)]
-        if prior is not None:
-            sensitivities = fit_sensitivities([a.uncalibrated for a in analyses], [a.response for a in analyses],
-                                              refs, prior)
-            own = CameraProfile(camera.name, sensitivities)
+        try:
+            if processed:
+                if n == 1 and fitted is None and chosen is not None:
+                    fit_check = chosen  # the first shot's processing on its poses: already fitted
+                else:
+                    fit_check = _fit_processing(shots, firsts, own, refs, fitted, basis)
+                fitted = fit_check.pipeline
+                undo = _undo(fitted, preset, camera, firsts[0].response.shape[0])
+                analyses = [read_photo(s.image, preset, camera, generic_camera=generic_camera, calibration=undo,
+                                       fit=first.fit, known_spd=ref) for s, first, ref in zip(shots, firsts, refs)]
+            if prior is not None:
+                sensitivities = fit_sensitivities([a.uncalibrated for a in analyses], [a.response for a in analyses],
+                                                  refs, prior)
+                own = CameraProfile(camera.name, sensitivities)
+        except CDSpectraError:
+            if previous is None:
+                raise
+            fit_check, fitted, analyses, sensitivities, own = previous
+            break
+        rounds += 1
+        previous = (fit_check, fitted, analyses, sensitivities, own)
     if sensitivities is not None:
         analyses = [replace(a, posed=replace(a.posed, camera=own), matrix=feature_matrix(a.response, own))
                     for a in analyses]
@@ -282,6 +295,8 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
     meta = {**dict(metadata or {}), "unexplained": round(unexplained_share(values, valid, predicted), 4)}
     if fit_check is not None:  # how well the processing explains the shots' pixels, 8-bit codes RMS
         meta["processing_rms_codes"] = round(float(fit_check.rms_codes), 2)
+    if processed and prior is not None:
+        meta["rounds"] = rounds  # of PIPELINE_CAMERA_ROUNDS (processing, sensitivities) kept
     return Calibration(name, gains, preset.name, camera.name, meta, fitted, sensitivities), analyses
 
 
