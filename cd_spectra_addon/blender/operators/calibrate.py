@@ -109,4 +109,22 @@ class CDSPECTRA_OT_calibrate(bpy.types.Operator):
         if saved_as in calibration_names():
             settings.calibration = saved_as  # the new profile is the one to use from now on
         self.report({"INFO"}, f"Saved calibration profile {saved_as} ({profile})")
+        self._report_checks(profile)
         return {"FINISHED"}
+
+    def _report_checks(self, profile: Path) -> None:
+        """What ``calibrate`` prints after saving, in the status bar: the cross-check of two
+        lamps, and the warning of a calibration that cannot explain its photo or does not carry
+        over from one known lamp to another (every estimate with it repeats it)."""
+        from ...core.calibration.calibration import calibration_warning, cross_check_summary, load_calibration
+
+        try:
+            made = load_calibration(profile)
+        except (CDSpectraError, ValueError, OSError):
+            return  # just saved by the core: nothing to add if it cannot be read back
+        checked = cross_check_summary(made)
+        if checked:
+            self.report({"INFO"}, checked)
+        poor = calibration_warning(made)
+        if poor:
+            self.report({"WARNING"}, poor)
