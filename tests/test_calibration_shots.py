@@ -327,3 +327,7 @@ def test_a_phone_pair_whose_rounds_drift_keeps_the_last_good_round_and_warns(tmp
     assert 1 <= cal.metadata["rounds"] < PIPELINE_CAMERA_ROUNDS
     assert np.all(np.isfinite(cal.gains)) and cal.sensitivities is not None
     assert "cannot explain its own photo" in calibration_warning(cal)
+    # Read alone and uncalibrated, its D65 JPEG is refused: the refusal says the file's processing
+    # may have misled it, not only where to move the lamp.
+    with pytest.raises(NoDiscError, match="read without a calibration of its processing"):
+        estimate_image(shots[1].image, preset=ph.preset, camera="auto", model=load_model())
