@@ -393,9 +393,9 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         elif image.processed and (posed.calibration is None or posed.calibration.pipeline is None):
             # The advice below reads the set-up from the fit, which the file's processed colours
             # can mislead: a phone's D65 JPEG (generic profile) was told its lamp stood 61 mm off.
-            hint = (" (an in-camera JPEG/HEIC read without a calibration of its processing: its colours can "
-                    "mislead the fit and the advice below — calibrate with a photo of a known lamp taken the same "
-                    "way, or shoot RAW)")
+            hint = (" (a camera-processed file — JPEG, HEIC, GIF — read without a calibration of its processing: "
+                    "its colours can mislead the fit and the advice below — calibrate with a photo of a known lamp "
+                    "taken the same way, or shoot RAW)")
         advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
