@@ -34,7 +34,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 PYTEST_WORKERS ?= 2
 PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-cross-check eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -129,6 +129,10 @@ eval-camera-renderings: setup
 # 2-core machine; all 205 (POSE_LAMPS=205) ≈ 15 h single-process — add POSE_JOBS=2 (one process per set-up).
 POSE_LAMPS ?= 12
 POSE_JOBS ?= 1
+# Where the two-lamp cross-check's limit comes from (calibration's own renderings only; ~5 min).
+eval-cross-check: setup
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.cross_check_family --out bench/cross_check_family.md
+
 eval-poses: setup
 	$(PY) -m training.evaluation.pose_errors --lamps $(POSE_LAMPS) --jobs $(POSE_JOBS) --out bench/pose_errors.md
 

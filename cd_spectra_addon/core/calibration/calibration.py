@@ -56,10 +56,11 @@ POOR_CALIBRATION_CONFIDENCE = 0.6
 # Set like EXPLAIN_LIMIT: 3× the worst of the calibration's own family (the typical and three
 # sampled renderings of training/simulation/camera_pipelines.py, JPEG 4:2:0 of a CIE A and a D65
 # shot, the Canon profile, 192 px, 2 noise draws: 0.013–0.037, one draw 0.077; raw files
-# 0.002–0.005), never chosen on held-out renderings or lamps. Judged only where the camera's
+# 0.002–0.005; `make eval-cross-check`, bench/cross_check_family.md), never chosen on held-out
+# renderings or lamps. Judged only where the camera's
 # profile is measured: with the generic profile each lamp alone must also measure the camera's
 # sensitivities, which one warm lamp cannot (a phone's own-family JPEGs: D65 read from the bulb's
-# calibration 0.09–0.41), so there it is reported, not judged.
+# calibration 0.11–0.49), so there it is reported, not judged.
 CROSS_CHECK_FAMILY_WORST = 0.077
 CROSS_CHECK_LIMIT = 3.0 * CROSS_CHECK_FAMILY_WORST
 
