@@ -1,7 +1,7 @@
 """JPEGs with 4:2:2 chroma (what DSLRs write in camera) load as faithfully as 4:2:0 ones.
 
 libjpeg's DCT-domain scaling misplaces 4:2:2 colour on fine detail, so the loader decodes such
-files at full size in YCbCr and averages there (core/jpeg_chroma.py). Every file is generated
+files at full size in YCbCr and averages there (core/photo/jpeg_chroma.py). Every file is generated
 here; the truth is the block mean of the linear values that were encoded.
 """
 
@@ -113,9 +113,10 @@ def test_24mp_422_jpeg_loads_quickly(tmp_path):
     ratio = min(ours) / min(bare)
     print(f"\n24 MP 4:2:2 JPEG → 1024 px: {min(ours) * 1e3:.0f} ms, bare full decode {min(bare) * 1e3:.0f} ms "
           f"(ratio {ratio:.2f})")
-    # ≈ 2.6–3.2 (a full-size YCbCr decode plus the box means); averaging in float64 by reshape
-    # gives ≈ 10. The old bound, 1.0 s, was ≈ 7 bare decodes of this file (≈ 0.14 s).
-    assert ratio < 6.0, (ours, bare)
+    # ≈ 1.7–1.8 (a full-size YCbCr decode plus Pillow's box means); 2.3–3.2 with the means taken
+    # by strided numpy adds, ≈ 10 averaging in float64 by reshape. Bounded with room for a busy
+    # machine: the full-size decode alone is a ratio of 1.
+    assert ratio < 4.0, (ours, bare)
 
 
 def _timed(path: Path) -> float:
