@@ -39,6 +39,7 @@ from ..photo.clipping import clipped_channels
 from ..spectra.cameras import CameraProfile
 from ..spectra.grid import VISIBLE_NM
 from ..scene.capture import Preset, Scene
+from ..scene.relative_pose import near_axis
 from ..planning.capture_advice import advice_for_photo, coverage_advice
 from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
@@ -52,7 +53,7 @@ from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.joint import JointSolve, edge_floors, joint_solve, usable
 from ..spectrum.tails import TailSettings, widen_std, with_tails
-from ..spectrum.solve import (PRIOR_STRENGTH, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
+from ..spectrum.solve import (PRIOR_STRENGTH, SMOOTHNESS, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
                              solve_fused, solve_physics, solve_prior)
 from ..pose.starts import CHEAP, ESCALATIONS
 from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
@@ -69,6 +70,35 @@ MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum 
 # mostly the prior's guess (a photo of 2nd–5th orders, a first order half in the infrared).
 MIN_COVERAGE_NM = 150.0
 MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
+# The lamp's size σ sets the forward matrix's blur along λ₁ (d·σ: 5 nm at the presets' 0.003, 16 nm
+# for a 0.01 bulb). Under a coaxial lamp over a level disc (cd-default) the lobe lights the whole
+# disc, so σ shows only in that blur, and the pose fit's self-consistency cannot judge it: its free λ₁ profile takes up a line's
+# width whatever σ is (:func:`..pose.fit._sized` judges the colour, which moves little). Synthetic
+# cd-default photos (6 prior families × σ 0.001/0.006/0.01, dev sweep) kept σ 0.003 for 12 of 18,
+# a tri-phosphor lamp of σ 0.01 reading MAE 0.35 (0.023 at the true σ). The readout's misfit does
+# judge it: a spectrum blurred by the wrong σ cannot give the photo's colour at each λ₁ (a blurred
+# line keeps its own colour off its centre); σ 9 % off left 3–4× the true σ's misfit. So σ is
+# searched on that misfit here: kept where the fit's own σ explains the readout to SIZE_EXPLAINED ×
+# its noise, else steps of SIZE_STEP (up to SIZE_RANGE) downhill to bracket the least, then a
+# golden-section search to SIZE_TOLERANCE; taken where it leaves at most SIZE_MISFIT_GAIN of the
+# fit's misfit. On those 18 photos σ 0.006 and 0.01 were then read within 2 %, σ 0.001 as
+# 0.0007–0.001 (finer blur than the readout's: the misfit is flat there), and the MAE went 0.066 ->
+# 0.020 (0.020 at the true pose); the six at σ 0.003 kept it (MAE 0.011 both). Only where the
+# lobe lights every track pixel at any σ (a coaxial lamp over a level disc): elsewhere σ also
+# chooses which pixels are read, so two sizes' misfits are not of one readout (a cd-default photo
+# tilted 5° went to σ 0.0007 at a 0.12 misfit; tripod-oblique σ 0.01 photos to 0.0024, MAE 0.036
+# -> 0.133), and the lobe's width there gives σ to the pose fit (σ 0.001–0.01 read within 4 % on
+# 68 of 71 synthetic photos of phone-near-axis, tripod-oblique and phone-distant-lamp; a
+# synthetic RGB LED up to 20 % off). Oblique presets are not tried at all (it would cost a read).
+SIZE_STEP = 1.6
+SIZE_RANGE = 4.5
+# misfit / noise at the true σ: 1.1–3.2 (12 synthetic cd-default photos at 512 px), 3.6–4.6 (two at
+# 768 px); with σ 9–11 % off 7–13
+SIZE_EXPLAINED = 5.0
+SIZE_TOLERANCE = 0.03  # the golden-section search stops at this width in log σ
+SIZE_MISFIT_GAIN = 0.7
+SIZE_SAME_PIXELS = 0.02  # a size whose readout reads more or fewer pixels than this share reads another readout
+SIZE_SMOOTHNESS = 1e-2 * SMOOTHNESS
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
 # quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
 # 0.3 % the rainbow is no longer found (bench/reliability.md).
@@ -79,7 +109,7 @@ __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_pho
            "tail_settings", "tailed",
            "focal_px_for", "focal_px_of", "focal_px_options", "EXIF_FOCAL_AGREEMENT", "physics_spd", "network_inputs",
            "covered_nm", "focal_px_from_photo",
-           "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "series_focal_px", "profile_residual", "sized_by_readout", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -280,6 +310,7 @@ def pose_photo(
         rgb = calibration.pipeline.display_to_native(display)
         clipped_masks = clipped_channels(image.rgb, image.saturated)
     excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
+    fitted = fit is None
     if fit is None:
         linear = rgb - rough_offset(rgb, excluded)
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
@@ -296,10 +327,104 @@ def pose_photo(
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source
             source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]
-    return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
-                 rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
-                 fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3}, display=display,
-                 clipped=clipped_masks)
+    posed = Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
+                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
+                  fit=fit, display=display, clipped=clipped_masks)
+    if fitted and near_axis(preset) and not generic_camera and not image.is_grey:
+        # the lamp's size on the readout (see SIZE_STEP); not with the generic profile (its colours
+        # are not the camera's: their mismatch reads as a blur) nor where a caller gave the fit
+        posed = replace(posed, fit=sized_by_readout(posed))
+    posed.timing_ms["pose"] = (time.perf_counter() - t0) * 1e3
+    return posed
+
+
+def profile_residual(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+    """How far ``spd``, at the brightness that fits best, is from reproducing the photo's
+    features: RMS over the valid features relative to the largest (1 where none is valid)."""
+    valid = readout.valid
+    if not np.any(valid):
+        return 1.0
+    p, m = np.einsum("bcl,l->bc", matrix, spd)[valid], readout.values[valid]
+    scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
+    return float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
+
+
+def _with_size(posed: Posed, sigma: float) -> PoseFit:
+    """The posed photo's fit with the lamp of size ``sigma`` (the same disc, camera and lamp)."""
+    fit = posed.fit
+    height, width = posed.rgb.shape[:2]
+    scene = fit.scene(posed.preset, (width, height))
+    light = replace(scene.preset.light, lobe_sigma=float(sigma))
+    return replace(fit, lobe_sigma=float(sigma), known_scene=Scene(replace(scene.preset, light=light), scene.pose))
+
+
+def _size_misfit(posed: Posed, sigma: float) -> tuple[float, int]:
+    """The misfit of the readout read with a lamp of size ``sigma`` by the spectrum that explains
+    it best, in units of the readout's noise (∞ where that readout is refused), and how many
+    pixels it read. The solve is barely smoothed: the smoothness a full solve asks for is taken up
+    by a smaller σ (a synthetic tri-phosphor lamp of σ 0.003 read least at 0.0026, of σ 0.01 at
+    0.0095)."""
+    try:
+        reading = read_posed(replace(posed, fit=_with_size(posed, sigma)))
+    except NoDiscError:
+        return math.inf, 0
+    readout = reading.readout
+    valid = readout.valid
+    pixels = int(np.sum(readout.pixel_weight > 0))
+    if not np.any(valid):
+        return math.inf, pixels
+    spd = physics_solve(readout, reading.matrix, smoothness=SIZE_SMOOTHNESS)
+    top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
+    noise = float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top
+    return profile_residual(readout, reading.matrix, spd) / max(noise, 1e-12), pixels
+
+
+def sized_by_readout(posed: Posed) -> PoseFit:
+    """The posed photo's fit with the lamp size whose forward matrix lets a spectrum explain the
+    readout best (see SIZE_STEP); the fit itself where its own size explains the readout to
+    SIZE_EXPLAINED × its noise, where the lobe does not light every track pixel (the sizes'
+    readouts differ), or where no size beats its own by SIZE_MISFIT_GAIN."""
+    x0, step = math.log(posed.fit.lobe_sigma), math.log(SIZE_STEP)
+    m0, n0 = _size_misfit(posed, posed.fit.lobe_sigma)
+    if not math.isfinite(m0) or m0 <= SIZE_EXPLAINED:
+        return posed.fit
+    tried = {x0: m0}  # log σ → misfit
+
+    def same(x: float) -> bool:
+        """Tries log σ ``x``; False where that size reads other pixels than the fit's."""
+        m, n = _size_misfit(posed, math.exp(x))
+        tried[x] = m
+        return abs(n - n0) <= SIZE_SAME_PIXELS * n0
+
+    if not (same(x0 - step) and same(x0 + step)):
+        return posed.fit
+    way = step if tried[x0 + step] < tried[x0 - step] else -step
+    x, last = x0 + way, x0 + way * math.floor(math.log(SIZE_RANGE) / step)
+    while tried[x] < tried[x - way] and abs(x - x0) < abs(last - x0) - 1e-9 and same(x + way):
+        x += way  # downhill, to the end of the range at most
+    best = min(tried, key=lambda v: tried[v])
+    lo, hi = best - step, best + step
+    if lo in tried and hi in tried:
+        # golden-section search between the least misfit's neighbours: the misfit is a narrow V
+        # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex
+        ratio = (math.sqrt(5.0) - 1.0) / 2.0
+        c, d = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        ok = same(c) and same(d)
+        while ok and hi - lo > SIZE_TOLERANCE:
+            if tried[c] < tried[d]:
+                hi, d = d, c
+                c = hi - ratio * (hi - lo)
+                ok = same(c)
+            else:
+                lo, c = c, d
+                d = lo + ratio * (hi - lo)
+                ok = same(d)
+        if not ok:
+            return posed.fit
+    best = min(tried, key=lambda v: tried[v])
+    if tried[best] > SIZE_MISFIT_GAIN * m0:
+        return posed.fit
+    return _with_size(posed, math.exp(best))
 
 
 def rainbow_found(fit: PoseFit) -> bool:
