@@ -396,35 +396,42 @@ def sized_by_readout(posed: Posed) -> PoseFit:
         tried[x] = m
         return abs(n - n0) <= SIZE_SAME_PIXELS * n0
 
-    if not (same(x0 - step) and same(x0 + step)):
-        return posed.fit
-    way = step if tried[x0 + step] < tried[x0 - step] else -step
-    x, last = x0 + way, x0 + way * math.floor(math.log(SIZE_RANGE) / step)
-    while tried[x] < tried[x - way] and abs(x - x0) < abs(last - x0) - 1e-9 and same(x + way):
-        x += way  # downhill, to the end of the range at most
-    best = min(tried, key=lambda v: tried[v])
-    lo, hi = best - step, best + step
-    if lo in tried and hi in tried:
+    steps = {0: x0}  # the walk's sizes by step
+    for k in (-1, 1):
+        steps[k] = x0 + k * step
+        if not same(steps[k]):
+            return posed.fit
+    way = 1 if tried[steps[1]] < tried[steps[-1]] else -1
+    k, last = way, int(math.floor(math.log(SIZE_RANGE) / step))
+    while tried[steps[k]] < tried[steps[k - way]] and abs(k) < last:  # downhill, to the range's end
+        steps[k + way] = x0 + (k + way) * step
+        if not same(steps[k + way]):
+            return posed.fit
+        k += way
+    best = min(steps, key=lambda j: tried[steps[j]])
+    if best - 1 in steps and best + 1 in steps:
         # golden-section search between the least misfit's neighbours: the misfit is a narrow V
         # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex
+        lo, hi = steps[best - 1], steps[best + 1]
         ratio = (math.sqrt(5.0) - 1.0) / 2.0
         c, d = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-        ok = same(c) and same(d)
-        while ok and hi - lo > SIZE_TOLERANCE:
+        if not (same(c) and same(d)):
+            return posed.fit
+        while hi - lo > SIZE_TOLERANCE:
             if tried[c] < tried[d]:
                 hi, d = d, c
                 c = hi - ratio * (hi - lo)
-                ok = same(c)
+                x = c
             else:
                 lo, c = c, d
                 d = lo + ratio * (hi - lo)
-                ok = same(d)
-        if not ok:
-            return posed.fit
-    best = min(tried, key=lambda v: tried[v])
-    if tried[best] > SIZE_MISFIT_GAIN * m0:
+                x = d
+            if not same(x):
+                return posed.fit
+    at = min(tried, key=lambda v: tried[v])
+    if tried[at] > SIZE_MISFIT_GAIN * m0:
         return posed.fit
-    return _with_size(posed, math.exp(best))
+    return _with_size(posed, math.exp(at))
 
 
 def rainbow_found(fit: PoseFit) -> bool:
