@@ -330,9 +330,12 @@ def pose_photo(
     posed = Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                   rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
                   fit=fit, display=display, clipped=clipped_masks)
-    if fitted and near_axis(preset) and not generic_camera and not image.is_grey:
-        # the lamp's size on the readout (see SIZE_STEP); not with the generic profile (its colours
-        # are not the camera's: their mismatch reads as a blur) nor where a caller gave the fit
+    if fitted and near_axis(preset) and not generic_camera and not image.is_grey and not image.processed:
+        # the lamp's size on the readout (see SIZE_STEP); only on the camera's own colours: not
+        # with the generic profile nor from a processed file, calibrated or not (their colour
+        # mismatch reads as a blur: with it a two-shot calibration of synthetic in-camera JPEGs
+        # read a cool lamp at 1.5× one shot's MAE, tests/test_calibration_shots.py), nor where a
+        # caller gave the fit
         posed = replace(posed, fit=sized_by_readout(posed))
     posed.timing_ms["pose"] = (time.perf_counter() - t0) * 1e3
     return posed
