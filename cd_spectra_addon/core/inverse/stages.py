@@ -99,6 +99,14 @@ SIZE_TOLERANCE = 0.03  # the golden-section search stops at this width in log σ
 SIZE_MISFIT_GAIN = 0.7
 SIZE_SAME_PIXELS = 0.02  # a size whose readout reads more or fewer pixels than this share reads another readout
 SIZE_SMOOTHNESS = 1e-2 * SMOOTHNESS
+# The forward matrix blurs each pixel's colour over the pixel's own footprint (and d·σ), not over
+# more: where a JPEG's subsampled chroma is read finer than the file holds it (image.colour_px > 1:
+# a 4:2:0 file at full size), every colour is spread over two pixels more than the readout's model
+# has, which the search would read as a larger lamp. The slow test_joint_estimate photos (256 px
+# 4:2:0 JPEGs, lamp σ 0.003, one pixel ≈ 10 nm of λ₁): at the true pose the misfit fell from 6.8
+# at σ 0.003 to 3.0 at 0.006 (read 0.006, the joint brightness ratio off); the same frame as a
+# 4:4:4 JPEG was least at 0.003–0.004 (2.0), as a PNG at 0.003 (0.5), and the 4:2:0 file decoded
+# at half size (one chroma sample per pixel) at 0.003 (1.7). Such photos keep the pose fit's σ.
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
 # quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
 # 0.3 % the rainbow is no longer found (bench/reliability.md).
@@ -132,6 +140,9 @@ class Posed:
     # the channels it clipped (low, high), which the readout reads as bounds.
     display: NDArray[np.float64] | None = None
     clipped: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None
+    # The readout at ``fit`` where the pose stage already read it (the lamp-size search):
+    # read_posed gives it back rather than reading again (only for this very fit and photo).
+    reading: Reading | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass
@@ -330,13 +341,17 @@ def pose_photo(
     posed = Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                   rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
                   fit=fit, display=display, clipped=clipped_masks)
-    if fitted and near_axis(preset) and not generic_camera and not image.is_grey and not image.processed:
+    if (fitted and near_axis(preset) and not generic_camera and not image.is_grey and not image.processed
+            and image.colour_px <= 1.0):
         # the lamp's size on the readout (see SIZE_STEP); only on the camera's own colours: not
         # with the generic profile nor from a processed file, calibrated or not (their colour
         # mismatch reads as a blur: with it a two-shot calibration of synthetic in-camera JPEGs
         # read a cool lamp at 1.5× one shot's MAE, tests/test_calibration_shots.py), nor where a
-        # caller gave the fit
-        posed = replace(posed, fit=sized_by_readout(posed))
+        # caller gave the fit; nor where each pixel's colour is blurred beyond the pixel (see
+        # SIZE_SMOOTHNESS). The readout read at the kept size goes with the fit, so that
+        # read_posed does not read it again.
+        fit, reading = sized_by_readout(posed)
+        posed = replace(posed, fit=fit, reading=reading)
     posed.timing_ms["pose"] = (time.perf_counter() - t0) * 1e3
     return posed
 
@@ -361,65 +376,70 @@ def _with_size(posed: Posed, sigma: float) -> PoseFit:
     return replace(fit, lobe_sigma=float(sigma), known_scene=Scene(replace(scene.preset, light=light), scene.pose))
 
 
-def _size_misfit(posed: Posed, sigma: float) -> tuple[float, int]:
-    """The misfit of the readout read with a lamp of size ``sigma`` by the spectrum that explains
-    it best, in units of the readout's noise (∞ where that readout is refused), and how many
-    pixels it read. The solve is barely smoothed: the smoothness a full solve asks for is taken up
-    by a smaller σ (a synthetic tri-phosphor lamp of σ 0.003 read least at 0.0026, of σ 0.01 at
-    0.0095)."""
+def _size_misfit(posed: Posed, fit: PoseFit) -> tuple[float, int, Reading | None]:
+    """The misfit of the readout read at ``fit`` (the photo's fit with some lamp size) by the
+    spectrum that explains it best, in units of the readout's noise (∞ where that readout is
+    refused), how many pixels it read, and that reading. The solve is barely smoothed: the
+    smoothness a full solve asks for is taken up by a smaller σ (a synthetic tri-phosphor lamp of
+    σ 0.003 read least at 0.0026, of σ 0.01 at 0.0095)."""
     try:
-        reading = read_posed(replace(posed, fit=_with_size(posed, sigma)))
+        reading = read_posed(replace(posed, fit=fit, reading=None))
     except NoDiscError:
-        return math.inf, 0
+        return math.inf, 0, None
     readout = reading.readout
     valid = readout.valid
     pixels = int(np.sum(readout.pixel_weight > 0))
     if not np.any(valid):
-        return math.inf, pixels
+        return math.inf, pixels, reading
     spd = physics_solve(readout, reading.matrix, smoothness=SIZE_SMOOTHNESS)
     top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
     noise = float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top
-    return profile_residual(readout, reading.matrix, spd) / max(noise, 1e-12), pixels
+    return profile_residual(readout, reading.matrix, spd) / max(noise, 1e-12), pixels, reading
 
 
-def sized_by_readout(posed: Posed) -> PoseFit:
+def sized_by_readout(posed: Posed) -> tuple[PoseFit, Reading | None]:
     """The posed photo's fit with the lamp size whose forward matrix lets a spectrum explain the
-    readout best (see SIZE_STEP); the fit itself where its own size explains the readout to
-    SIZE_EXPLAINED × its noise, where the lobe does not light every track pixel (the sizes'
-    readouts differ), or where no size beats its own by SIZE_MISFIT_GAIN."""
+    readout best (see SIZE_STEP), and the reading at that fit (None where it was refused); the
+    fit itself where its own size explains the readout to SIZE_EXPLAINED × its noise, where the
+    lobe does not light every track pixel (the sizes' readouts differ), or where no size beats
+    its own by SIZE_MISFIT_GAIN."""
     x0, step = math.log(posed.fit.lobe_sigma), math.log(SIZE_STEP)
-    m0, n0 = _size_misfit(posed, posed.fit.lobe_sigma)
+    m0, n0, reading0 = _size_misfit(posed, posed.fit)
     if not math.isfinite(m0) or m0 <= SIZE_EXPLAINED:
-        return posed.fit
+        return posed.fit, reading0
     tried = {x0: m0}  # log σ → misfit
+    best: list = [math.inf, None, None]  # the least misfit of another size: misfit, fit, reading
 
     def same(x: float) -> bool:
         """Tries log σ ``x``; False where that size reads other pixels than the fit's."""
-        m, n = _size_misfit(posed, math.exp(x))
+        fit = _with_size(posed, math.exp(x))
+        m, n, reading = _size_misfit(posed, fit)
         tried[x] = m
+        if m < best[0]:
+            best[:] = [m, fit, reading]
         return abs(n - n0) <= SIZE_SAME_PIXELS * n0
 
     steps = {0: x0}  # the walk's sizes by step
     for k in (-1, 1):
         steps[k] = x0 + k * step
         if not same(steps[k]):
-            return posed.fit
+            return posed.fit, reading0
     way = 1 if tried[steps[1]] < tried[steps[-1]] else -1
     k, last = way, int(math.floor(math.log(SIZE_RANGE) / step))
     while tried[steps[k]] < tried[steps[k - way]] and abs(k) < last:  # downhill, to the range's end
         steps[k + way] = x0 + (k + way) * step
         if not same(steps[k + way]):
-            return posed.fit
+            return posed.fit, reading0
         k += way
-    best = min(steps, key=lambda j: tried[steps[j]])
-    if best - 1 in steps and best + 1 in steps:
+    least = min(steps, key=lambda j: tried[steps[j]])
+    if least - 1 in steps and least + 1 in steps:
         # golden-section search between the least misfit's neighbours: the misfit is a narrow V
         # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex
-        lo, hi = steps[best - 1], steps[best + 1]
+        lo, hi = steps[least - 1], steps[least + 1]
         ratio = (math.sqrt(5.0) - 1.0) / 2.0
         c, d = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
         if not (same(c) and same(d)):
-            return posed.fit
+            return posed.fit, reading0
         while hi - lo > SIZE_TOLERANCE:
             if tried[c] < tried[d]:
                 hi, d = d, c
@@ -430,11 +450,10 @@ def sized_by_readout(posed: Posed) -> PoseFit:
                 d = lo + ratio * (hi - lo)
                 x = d
             if not same(x):
-                return posed.fit
-    at = min(tried, key=lambda v: tried[v])
-    if tried[at] > SIZE_MISFIT_GAIN * m0:
-        return posed.fit
-    return _with_size(posed, math.exp(at))
+                return posed.fit, reading0
+    if best[1] is None or best[0] > SIZE_MISFIT_GAIN * m0:
+        return posed.fit, reading0
+    return best[1], best[2]
 
 
 def rainbow_found(fit: PoseFit) -> bool:
@@ -493,6 +512,13 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     first order holds less than ``min_coverage_nm`` of 400–700 nm, saying what to move. A joint
     estimate lowers that: another photo supplies the rest (:mod:`.joint`)."""
     t1 = time.perf_counter()
+    cached = posed.reading
+    if (cached is not None and pixels is None and known_spd is None and min_coverage_nm == MIN_COVERAGE_NM
+            and cached.posed.fit is posed.fit and cached.posed.rgb is posed.rgb
+            and cached.posed.excluded is posed.excluded and cached.posed.camera is posed.camera
+            and cached.posed.calibration is posed.calibration and cached.posed.display is posed.display):
+        return replace(cached, posed=posed, timing_ms={**posed.timing_ms, **{
+            k: v for k, v in cached.timing_ms.items() if k in ("readout", "forward")}})
     image, rgb, excluded, fit = posed.image, posed.rgb, posed.excluded, posed.fit
     height, width, _ = rgb.shape
     scene = fit.scene(posed.preset, (width, height))
