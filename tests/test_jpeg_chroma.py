@@ -131,3 +131,19 @@ def _bare_decode(path: Path) -> float:
     with Image.open(path) as im:
         im.load()
     return time.perf_counter() - start
+
+
+@pytest.mark.parametrize(("sampling", "max_side", "colour_px"),
+                         [("4:2:0", 256, 2.0), ("4:2:2", 256, 2.0), ("4:4:4", 256, 1.0),
+                          ("4:2:0", 128, 1.0), ("4:2:2", 128, 1.0), ("4:2:0", 64, 1.0)])
+def test_a_pixel_finer_than_the_files_colour_says_so(tmp_path, sampling, max_side, colour_px):
+    """A subsampled JPEG read at full size holds one colour per 2 pixels (what the lamp-size search
+    must not read as a lamp's blur); a draft or box of 2 or more gives every pixel its own."""
+    path = _jpeg(tmp_path / "rings.jpg", _rings(256, 256), sampling)
+    assert load_photo(path, max_side=max_side).colour_px == colour_px
+
+
+def test_other_formats_hold_a_colour_per_pixel(tmp_path):
+    codes = np.rint(srgb_encode(_rings(64, 64)) * 255).astype(np.uint8)
+    Image.fromarray(codes).save(tmp_path / "rings.png")
+    assert load_photo(tmp_path / "rings.png").colour_px == 1.0

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..rendition.result import rendition as rendition_figures
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
-from .stages import (DIM_LEVEL_8BIT, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
+from .stages import (DIM_LEVEL_8BIT, profile_residual, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
                      spectrum)
 from ..calibration.calibration import (POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_check,
                                        calibration_warning, load_calibration)
@@ -133,17 +133,6 @@ def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]
     total = np.bincount(readout.pixel_bin, weights=vis2, minlength=n).astype(np.float64)  # int64 if empty
     hit = np.bincount(readout.pixel_bin, weights=vis2 * flagged, minlength=n).astype(np.float64)
     return np.divide(hit, total, out=np.zeros_like(total), where=total > 0)
-
-
-def profile_residual(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
-    """How far ``spd``, at the brightness that fits best, is from reproducing the photo's
-    features: RMS over the valid features relative to the largest (1 where none is valid)."""
-    valid = readout.valid
-    if not np.any(valid):
-        return 1.0
-    p, m = np.einsum("bcl,l->bc", matrix, spd)[valid], readout.values[valid]
-    scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
-    return float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
 
 
 def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Reading,

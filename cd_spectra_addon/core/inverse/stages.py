@@ -37,8 +37,9 @@ from ..calibration.calibration import Calibration
 from ..calibration.censoring import uncensor
 from ..photo.clipping import clipped_channels
 from ..spectra.cameras import CameraProfile
-from ..spectra.grid import VISIBLE_NM
+from ..spectra.grid import MIN_VISIBILITY, N_FEATURES, VISIBLE_NM, feature_bins
 from ..scene.capture import Preset, Scene
+from ..scene.relative_pose import near_axis
 from ..planning.capture_advice import advice_for_photo, coverage_advice
 from ..scene.diffraction import LobePixels, PixelDiffraction
 from ..errors import CDSpectraError, NoDiscError, PhotoError
@@ -52,7 +53,7 @@ from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.joint import JointSolve, edge_floors, joint_solve, usable
 from ..spectrum.tails import TailSettings, widen_std, with_tails
-from ..spectrum.solve import (PRIOR_STRENGTH, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
+from ..spectrum.solve import (PRIOR_STRENGTH, SMOOTHNESS, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
                              solve_fused, solve_physics, solve_prior)
 from ..pose.starts import CHEAP, ESCALATIONS
 from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
@@ -69,6 +70,43 @@ MIN_VALID_BINS = 10  # λ₁ bins (5 nm each) a readout needs before a spectrum 
 # mostly the prior's guess (a photo of 2nd–5th orders, a first order half in the infrared).
 MIN_COVERAGE_NM = 150.0
 MAX_SATURATED_SHARE = 0.9  # a photo clipped almost everywhere holds no rainbow to read
+# The lamp's size σ sets the forward matrix's blur along λ₁ (d·σ: 5 nm at the presets' 0.003, 16 nm
+# for a 0.01 bulb). Under a coaxial lamp over a level disc (cd-default) the lobe lights the whole
+# disc, so σ shows only in that blur, and the pose fit's self-consistency cannot judge it: its free λ₁ profile takes up a line's
+# width whatever σ is (:func:`..pose.fit._sized` judges the colour, which moves little). Synthetic
+# cd-default photos (6 prior families × σ 0.001/0.006/0.01, dev sweep) kept σ 0.003 for 12 of 18,
+# a tri-phosphor lamp of σ 0.01 reading MAE 0.35 (0.023 at the true σ). The readout's misfit does
+# judge it: a spectrum blurred by the wrong σ cannot give the photo's colour at each λ₁ (a blurred
+# line keeps its own colour off its centre); σ 9 % off left 3–4× the true σ's misfit. So σ is
+# searched on that misfit here: kept where the fit's own σ explains the readout to SIZE_EXPLAINED ×
+# its noise, else steps of SIZE_STEP (up to SIZE_RANGE) downhill to bracket the least, then a
+# golden-section search to SIZE_TOLERANCE; taken where it leaves at most SIZE_MISFIT_GAIN of the
+# fit's misfit. On those 18 photos σ 0.006 and 0.01 were then read within 2 %, σ 0.001 as
+# 0.0007–0.001 (finer blur than the readout's: the misfit is flat there), and the MAE went 0.066 ->
+# 0.020 (0.020 at the true pose); the six at σ 0.003 kept it (MAE 0.011 both). Only where the
+# lobe lights every track pixel at any σ (a coaxial lamp over a level disc): elsewhere σ also
+# chooses which pixels are read, so two sizes' misfits are not of one readout (a cd-default photo
+# tilted 5° went to σ 0.0007 at a 0.12 misfit; tripod-oblique σ 0.01 photos to 0.0024, MAE 0.036
+# -> 0.133), and the lobe's width there gives σ to the pose fit (σ 0.001–0.01 read within 4 % on
+# 68 of 71 synthetic photos of phone-near-axis, tripod-oblique and phone-distant-lamp; a
+# synthetic RGB LED up to 20 % off). Oblique presets are not tried at all (it would cost a read).
+SIZE_STEP = 1.6
+SIZE_RANGE = 4.5
+# misfit / noise at the true σ: 1.1–3.2 (12 synthetic cd-default photos at 512 px), 3.6–4.6 (two at
+# 768 px); with σ 9–11 % off 7–13
+SIZE_EXPLAINED = 5.0
+SIZE_TOLERANCE = 0.03  # the golden-section search stops at this width in log σ
+SIZE_MISFIT_GAIN = 0.7
+SIZE_SAME_PIXELS = 0.02  # a size whose lobe lights more or fewer readout pixels than this share reads another readout
+SIZE_SMOOTHNESS = 1e-2 * SMOOTHNESS
+# The forward matrix blurs each pixel's colour over the pixel's own footprint (and d·σ), not over
+# more: where a JPEG's subsampled chroma is read finer than the file holds it (image.colour_px > 1:
+# a 4:2:0 file at full size), every colour is spread over two pixels more than the readout's model
+# has, which the search would read as a larger lamp. The slow test_joint_estimate photos (256 px
+# 4:2:0 JPEGs, lamp σ 0.003, one pixel ≈ 10 nm of λ₁): at the true pose the misfit fell from 6.8
+# at σ 0.003 to 3.0 at 0.006 (read 0.006, the joint brightness ratio off); the same frame as a
+# 4:4:4 JPEG was least at 0.003–0.004 (2.0), as a PNG at 0.003 (0.5), and the 4:2:0 file decoded
+# at half size (one chroma sample per pixel) at 0.003 (1.7). Such photos keep the pose fit's σ.
 # An 8-bit photo whose rainbow peaks below this share of full scale (sRGB code ≈ 25) is mostly
 # quantisation: at 0.5 % exposure the physics-only MAE rose from 0.004 to 0.13 (CIE A), and at
 # 0.3 % the rainbow is no longer found (bench/reliability.md).
@@ -79,7 +117,7 @@ __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_pho
            "tail_settings", "tailed",
            "focal_px_for", "focal_px_of", "focal_px_options", "EXIF_FOCAL_AGREEMENT", "physics_spd", "network_inputs",
            "covered_nm", "focal_px_from_photo",
-           "series_focal_px", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "series_focal_px", "profile_residual", "sized_by_readout", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -102,6 +140,9 @@ class Posed:
     # the channels it clipped (low, high), which the readout reads as bounds.
     display: NDArray[np.float64] | None = None
     clipped: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None
+    # The readout at ``fit`` where the pose stage already read it (the lamp-size search):
+    # read_posed gives it back rather than reading again (only for this very fit and photo).
+    reading: Reading | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass
@@ -280,6 +321,7 @@ def pose_photo(
         rgb = calibration.pipeline.display_to_native(display)
         clipped_masks = clipped_channels(image.rgb, image.saturated)
     excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
+    fitted = fit is None
     if fit is None:
         linear = rgb - rough_offset(rgb, excluded)
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
@@ -296,10 +338,138 @@ def pose_photo(
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source
             source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]
-    return Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
-                 rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
-                 fit=fit, timing_ms={"pose": (time.perf_counter() - t0) * 1e3}, display=display,
-                 clipped=clipped_masks)
+    posed = Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
+                  rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
+                  fit=fit, display=display, clipped=clipped_masks)
+    if (fitted and near_axis(preset) and not generic_camera and not image.is_grey and not image.processed
+            and image.colour_px <= 1.0):
+        # the lamp's size on the readout (see SIZE_STEP); only on the camera's own colours: not
+        # with the generic profile nor from a processed file, calibrated or not (their colour
+        # mismatch reads as a blur: with it a two-shot calibration of synthetic in-camera JPEGs
+        # read a cool lamp at 1.5× one shot's MAE, tests/test_calibration_shots.py), nor where a
+        # caller gave the fit; nor where each pixel's colour is blurred beyond the pixel (see
+        # SIZE_SMOOTHNESS). The readout read at the kept size goes with the fit, so that
+        # read_posed does not read it again.
+        fit, reading = sized_by_readout(posed)
+        posed = replace(posed, fit=fit, reading=reading)
+    posed.timing_ms["pose"] = (time.perf_counter() - t0) * 1e3
+    return posed
+
+
+def profile_residual(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64]) -> float:
+    """How far ``spd``, at the brightness that fits best, is from reproducing the photo's
+    features: RMS over the valid features relative to the largest (1 where none is valid)."""
+    valid = readout.valid
+    if not np.any(valid):
+        return 1.0
+    p, m = np.einsum("bcl,l->bc", matrix, spd)[valid], readout.values[valid]
+    scale = float(np.sum(p * m) / max(np.sum(p * p), 1e-300))
+    return float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
+
+
+def _with_size(posed: Posed, sigma: float) -> PoseFit:
+    """The posed photo's fit with the lamp of size ``sigma`` (the same disc, camera and lamp)."""
+    fit = posed.fit
+    height, width = posed.rgb.shape[:2]
+    scene = fit.scene(posed.preset, (width, height))
+    light = replace(scene.preset.light, lobe_sigma=float(sigma))
+    return replace(fit, lobe_sigma=float(sigma), known_scene=Scene(replace(scene.preset, light=light), scene.pose))
+
+
+def _lit_pixels(scene: Scene) -> int:
+    """How many pixels the readout would read in ``scene``: on the tracks, lit by the lobe to
+    MIN_VISIBILITY, λ₁ on the feature grid."""
+    px = readout_pixels(scene).pixels
+    b = feature_bins(px.lambda1_nm)
+    return int(np.sum(px.on_tracks & (px.visibility >= MIN_VISIBILITY) & (b >= 0) & (b < N_FEATURES)))
+
+
+def sized_by_readout(posed: Posed) -> tuple[PoseFit, Reading | None]:
+    """The posed photo's fit with the lamp size whose forward matrix lets a spectrum explain the
+    readout best (see SIZE_STEP), and the reading at that fit (None where it was refused); the
+    fit itself where its own size explains the readout to SIZE_EXPLAINED × its noise, where the
+    lobe does not light the same pixels at every size tried, or where no size beats its own by
+    SIZE_MISFIT_GAIN.
+
+    Every size is judged on the one readout read at the fit's own σ, only the forward matrix
+    redone: where the lobe lights the same pixels, another σ's readout differs only by the lobe's
+    weights (two synthetic cd-default photos, σ 0.0015–0.02: misfit within 0.1 of each size's own
+    readout's, 2.15 against 2.10 at the least). The lit pixels are counted at the walk's steps
+    only: the golden section lies between two of them, and the lit area grows with σ. On the
+    tests/test_lamp_size.py photos (384 and 512 px, σ 0.001–0.01) the same σ to 0.7 % in 0.55–0.70
+    s where each size read its own readout took 0.91–1.09 s."""
+    x0, step = math.log(posed.fit.lobe_sigma), math.log(SIZE_STEP)
+    try:
+        reading0 = read_posed(replace(posed, reading=None))
+    except NoDiscError:
+        return posed.fit, None
+    readout = reading0.readout
+    valid = readout.valid
+    if not np.any(valid):
+        return posed.fit, reading0
+    top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
+    noise = max(float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top, 1e-12)
+    height, width = posed.rgb.shape[:2]
+
+    def misfit(matrix: NDArray[np.float64]) -> float:
+        """The readout's misfit by the spectrum that explains it best through ``matrix``, in units of
+        its noise. The solve is barely smoothed: the smoothness a full solve asks for is taken up
+        by a smaller σ (a synthetic tri-phosphor lamp of σ 0.003 read least at 0.0026, of σ 0.01
+        at 0.0095)."""
+        spd = physics_solve(readout, matrix, smoothness=SIZE_SMOOTHNESS)
+        return profile_residual(readout, matrix, spd) / noise
+
+    m0 = misfit(reading0.matrix)
+    if m0 <= SIZE_EXPLAINED:
+        return posed.fit, reading0
+    n0 = _lit_pixels(reading0.scene)
+    tried = {x0: m0}  # log σ → misfit
+
+    def same(x: float, count: bool = True) -> bool:
+        """Tries log σ ``x``; False where that size's lobe lights other pixels than the fit's."""
+        scene = _with_size(posed, math.exp(x)).scene(posed.preset, (width, height))
+        tried[x] = misfit(feature_matrix(bin_response(scene, readout), posed.camera))
+        return not count or abs(_lit_pixels(scene) - n0) <= SIZE_SAME_PIXELS * n0
+
+    steps = {0: x0}  # the walk's sizes by step
+    for k in (-1, 1):
+        steps[k] = x0 + k * step
+        if not same(steps[k]):
+            return posed.fit, reading0
+    way = 1 if tried[steps[1]] < tried[steps[-1]] else -1
+    k, last = way, int(math.floor(math.log(SIZE_RANGE) / step))
+    while tried[steps[k]] < tried[steps[k - way]] and abs(k) < last:  # downhill, to the range's end
+        steps[k + way] = x0 + (k + way) * step
+        if not same(steps[k + way]):
+            return posed.fit, reading0
+        k += way
+    least = min(steps, key=lambda j: tried[steps[j]])
+    if least - 1 in steps and least + 1 in steps:
+        # golden-section search between the least misfit's neighbours: the misfit is a narrow V
+        # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex
+        lo, hi = steps[least - 1], steps[least + 1]
+        ratio = (math.sqrt(5.0) - 1.0) / 2.0
+        c, d = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        same(c, count=False)
+        same(d, count=False)
+        while hi - lo > SIZE_TOLERANCE:
+            if tried[c] < tried[d]:
+                hi, d = d, c
+                c = hi - ratio * (hi - lo)
+                x = c
+            else:
+                lo, c = c, d
+                d = lo + ratio * (hi - lo)
+                x = d
+            same(x, count=False)
+    at = min(tried, key=lambda v: tried[v])
+    if at == x0 or tried[at] > SIZE_MISFIT_GAIN * m0:
+        return posed.fit, reading0
+    fit = _with_size(posed, math.exp(at))
+    try:  # the kept size's own readout, for read_posed to give back
+        return fit, read_posed(replace(posed, fit=fit, reading=None))
+    except NoDiscError:
+        return fit, None
 
 
 def rainbow_found(fit: PoseFit) -> bool:
@@ -358,6 +528,13 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     first order holds less than ``min_coverage_nm`` of 400–700 nm, saying what to move. A joint
     estimate lowers that: another photo supplies the rest (:mod:`.joint`)."""
     t1 = time.perf_counter()
+    cached = posed.reading
+    if (cached is not None and pixels is None and known_spd is None and min_coverage_nm == MIN_COVERAGE_NM
+            and cached.posed.fit is posed.fit and cached.posed.rgb is posed.rgb
+            and cached.posed.excluded is posed.excluded and cached.posed.camera is posed.camera
+            and cached.posed.calibration is posed.calibration and cached.posed.display is posed.display):
+        return replace(cached, posed=posed, timing_ms={**posed.timing_ms, **{
+            k: v for k, v in cached.timing_ms.items() if k in ("readout", "forward")}})
     image, rgb, excluded, fit = posed.image, posed.rgb, posed.excluded, posed.fit
     height, width, _ = rgb.shape
     scene = fit.scene(posed.preset, (width, height))

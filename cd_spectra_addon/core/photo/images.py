@@ -95,6 +95,7 @@ from .image_formats import (
     pillow_pixels, sniff_format, tiff_header,
 )
 from .frames import FRAME_MARK, gif_frames, split_frame
+from .jpeg_chroma import chroma_px
 from .processed import judge_processed
 from .raw_files import RawPhoto, read_raw
 from .srgb import srgb_decode
@@ -129,6 +130,10 @@ class LinearImage:
     # Top-left corner of the loaded image in the displayed (EXIF-oriented) photo, original pixels:
     # loaded (row, col) maps to original (origin_y + (row + 0.5)·scale − 0.5, origin_x + …).
     origin_px: tuple[float, float] = (0.0, 0.0)  # (x, y)
+    # Loaded pixels per colour sample: above 1 where a JPEG's subsampled chroma (4:2:0, 4:2:2) is
+    # read finer than the file holds it (a 4:2:0 file at full size: 2), so each pixel's colour is
+    # blurred over more than the pixel; a draft or box of 2 or more gives every pixel its own.
+    colour_px: float = 1.0
 
     @property
     def displayed_size(self) -> tuple[int, int]:
@@ -152,7 +157,7 @@ def reduced(image: LinearImage, k: int) -> LinearImage:
     rgb = _box_sum(np.ascontiguousarray(image.rgb[:h, :w]), k) * np.float32(1.0 / (k * k))
     return replace(image, rgb=np.ascontiguousarray(rgb, dtype=np.float32),
                    saturated=_box_any(image.saturated[:h, :w], k), invalid=_box_any(image.invalid[:h, :w], k),
-                   scale=image.scale * k)
+                   scale=image.scale * k, colour_px=max(1.0, image.colour_px / k))
 
 
 def load_photo(path: str | os.PathLike[str], max_side: int = 1024, transfer: str = "auto",
@@ -481,8 +486,9 @@ class _Opened:
             pixels = _windowed(pixels, x0, y0, w * block, h * block)
         image = _linearise(pixels, block, header, self.name, transfer)
         size = float(block * pixels.draft)
+        colour_px = max(1.0, chroma_px(self.im) / size) if self.fmt == "jpeg" and self.im is not None else 1.0
         return replace(image, origin_px=_displayed_origin((x0 * pixels.draft, y0 * pixels.draft, w * size, h * size),
-                                                          full, orientation))
+                                                          full, orientation), colour_px=colour_px)
 
 
 def _seek_frame(im: Any, name: str, frame: int | None) -> None:

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 BAND_ROWS = 256  # full-size rows averaged at a time
 
-__all__ = ["scaled_decode_is_faithful", "box_decode"]
+__all__ = ["scaled_decode_is_faithful", "box_decode", "chroma_px"]
 
 
 def scaled_decode_is_faithful(im: Any) -> bool:
@@ -36,6 +36,20 @@ def scaled_decode_is_faithful(im: Any) -> bool:
         return JpegImagePlugin.get_sampling(im) in (0, 2)
     except Exception:  # noqa: BLE001 - Pillow's own errors on an odd header: decode at full size
         return False
+
+
+def chroma_px(im: Any) -> int:
+    """Full-size pixels per colour sample of a (Pillow) JPEG along its coarser axis: 1 for grey and
+    4:4:4, 2 for 4:2:0 and 4:2:2 (and, to be safe, rarer subsampled layouts): read at full size,
+    its colour is the chroma sample's, upsampled, over about that many pixels."""
+    if getattr(im, "mode", "") != "RGB":
+        return 1
+    from PIL import JpegImagePlugin
+
+    try:
+        return 1 if JpegImagePlugin.get_sampling(im) == 0 else 2
+    except Exception:  # noqa: BLE001 - Pillow's own errors on an odd header
+        return 2
 
 
 def box_decode(im: Any, factor: int) -> NDArray[np.uint8]:
