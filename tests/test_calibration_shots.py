@@ -301,7 +301,7 @@ def test_mixed_files_bad_lamps_and_missing_rainbows_are_refused_naming_the_file(
 
 
 @pytest.mark.slow  # two phone JPEGs, 8 rounds of processing + sensitivities and the cross-check (~40 s)
-def test_a_phone_pair_whose_rounds_drift_keeps_the_last_good_round_and_warns(tmp_path):
+def test_a_phone_pair_that_drifted_calibrates_with_finite_gains(tmp_path):
     """A phone unlike the 52 (generic profile), its CIE A and D65 JPEGs in the calibration's own
     typical rendering, 95 % of the rainbow's pixels with a clipped channel: the rounds of
     (processing, sensitivities) drift until the bulb's undone values turn negative. Refused as
@@ -324,10 +324,16 @@ def test_a_phone_pair_whose_rounds_drift_keeps_the_last_good_round_and_warns(tmp
     shots = [Shot(ph.jpeg(known_lamp_spd(lamp), camera, phone.exif, typical, 99 + k, f"c{k}"), known_lamp_spd(lamp))
              for k, lamp in enumerate(("incandescent", "daylight-d65"))]
     cal, _ = calibrate_shots(shots, ph.preset, "auto", load_model(), labels=["CIE A", "D65"])
-    assert 1 <= cal.metadata["rounds"] < PIPELINE_CAMERA_ROUNDS
+    # Since the generic profile's pose fit holds the lamp size in its coarse stage (8d884a1) this
+    # pair's rounds no longer drift: every round holds and the calibration explains its photos.
+    # The keep-the-last-good-round path needs a new drifting pair (not yet found): a drift would
+    # show here as fewer rounds, and then the calibration must say it cannot explain its photos.
+    rounds = cal.metadata["rounds"]
+    assert 1 <= rounds <= PIPELINE_CAMERA_ROUNDS
     assert np.all(np.isfinite(cal.gains)) and cal.sensitivities is not None
-    assert "cannot explain its own photo" in calibration_warning(cal)
-    # Read alone and uncalibrated, its D65 JPEG is refused: the refusal says the file's processing
-    # may have misled it, not only where to move the lamp.
-    with pytest.raises(NoDiscError, match="read without a calibration of its processing"):
-        estimate_image(shots[1].image, preset=ph.preset, camera="auto", model=load_model())
+    if rounds < PIPELINE_CAMERA_ROUNDS:
+        assert "cannot explain its own photo" in (calibration_warning(cal) or "")
+    # Read alone and uncalibrated, its D65 JPEG was refused before 8d884a1 (a wrong pose); now it
+    # is read, and the estimate says its file is processed and uncalibrated.
+    alone = estimate_image(shots[1].image, preset=ph.preset, camera="auto", model=load_model())
+    assert np.all(np.isfinite(alone.spd)) and alone.confidence < 1.0 and alone.warnings
