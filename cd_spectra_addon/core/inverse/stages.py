@@ -322,11 +322,20 @@ def pose_photo(
         clipped_masks = clipped_channels(image.rgb, image.saturated)
     excluded = np.asarray(image.saturated) | np.asarray(image.invalid)
     fitted = fit is None
+    # the lamp's size on the readout (see SIZE_STEP); only on the camera's own colours: not with
+    # the generic profile nor from a processed file, calibrated or not (their colour mismatch
+    # reads as a blur: with it a two-shot calibration of synthetic in-camera JPEGs read a cool
+    # lamp at 1.5× one shot's MAE, tests/test_calibration_shots.py), nor where a caller gave the
+    # fit; nor where each pixel's colour is blurred beyond the pixel (see SIZE_SMOOTHNESS). There
+    # the pose fit leaves its own judge of the size out (its colour blur moves little under a
+    # coaxial lamp; 24 MP cd-default JPEG: 15 ms of its 130).
+    by_readout = (fitted and near_axis(preset) and not generic_camera and not image.is_grey
+                  and not image.processed and image.colour_px <= 1.0)
     if fit is None:
         linear = rgb - rough_offset(rgb, excluded)
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations,
-                       size_from_colour=not generic_camera)
+                       size_from_colour=not generic_camera, judge_size=not by_readout)
         options = focal_px_options(image) if source.startswith("exif") else []
         if len(options) > 1:
             # resized or cropped after it was taken: the focal length that explains the photo
@@ -334,22 +343,16 @@ def pose_photo(
                 if other == focal_px:
                     continue
                 alt = fit_pose(linear, preset, other, sensitivities=camera.sensitivities, saturated=excluded,
-                               strategies=strategies, escalations=escalations, size_from_colour=not generic_camera)
+                               strategies=strategies, escalations=escalations, size_from_colour=not generic_camera,
+                               judge_size=not by_readout)
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source
             source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]
     posed = Posed(image=image, preset=preset, camera=camera, generic_camera=generic_camera, calibration=calibration,
                   rgb=rgb, excluded=excluded, clipped_share=clipped, focal_px=float(focal_px), focal_source=source,
                   fit=fit, display=display, clipped=clipped_masks)
-    if (fitted and near_axis(preset) and not generic_camera and not image.is_grey and not image.processed
-            and image.colour_px <= 1.0):
-        # the lamp's size on the readout (see SIZE_STEP); only on the camera's own colours: not
-        # with the generic profile nor from a processed file, calibrated or not (their colour
-        # mismatch reads as a blur: with it a two-shot calibration of synthetic in-camera JPEGs
-        # read a cool lamp at 1.5× one shot's MAE, tests/test_calibration_shots.py), nor where a
-        # caller gave the fit; nor where each pixel's colour is blurred beyond the pixel (see
-        # SIZE_SMOOTHNESS). The readout read at the kept size goes with the fit, so that
-        # read_posed does not read it again.
+    if by_readout:
+        # The readout read at the kept size goes with the fit, so that read_posed does not read it again.
         fit, reading = sized_by_readout(posed)
         posed = replace(posed, fit=fit, reading=reading)
     posed.timing_ms["pose"] = (time.perf_counter() - t0) * 1e3
@@ -444,10 +447,12 @@ def sized_by_readout(posed: Posed) -> tuple[PoseFit, Reading | None]:
             return posed.fit, reading0
         k += way
     least = min(steps, key=lambda j: tried[steps[j]])
-    if least - 1 in steps and least + 1 in steps:
+    if least - 1 in steps or least + 1 in steps:
         # golden-section search between the least misfit's neighbours: the misfit is a narrow V
-        # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex
-        lo, hi = steps[least - 1], steps[least + 1]
+        # in σ (σ 9 % off: 3–4× the true σ's), too sharp and lopsided for a parabola's vertex. At
+        # the range's end, between it and the step before (a σ 0.01 lamp fitted at 0.003 walked
+        # to the end, 0.0123, and read MAE 0.10 there, 0.03 searched).
+        lo, hi = steps.get(least - 1, steps[least]), steps.get(least + 1, steps[least])
         ratio = (math.sqrt(5.0) - 1.0) / 2.0
         c, d = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
         same(c, count=False)

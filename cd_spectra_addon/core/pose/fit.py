@@ -291,14 +291,15 @@ class _Fitted:
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              sensitivities: NDArray[np.float64] | None = None, saturated: NDArray[np.bool_] | None = None,
              strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS,
-             size_from_colour: bool = True) -> PoseFit:
+             size_from_colour: bool = True, judge_size: bool = True) -> PoseFit:
     """Disc pose, lamp position and lamp size of any capture from a linear photo (see the module
     docstring). ``saturated`` pixels (clipped, invalid) are left out; with the camera's
     ``sensitivities`` every λ₁ must also have the camera's colour there. ``strategies`` and
     ``escalations`` name the start strategies (:data:`.starts.STRATEGIES`) to use.
     ``size_from_colour``: judge the lamp's size on the colour blur (:func:`_sized`) and fit it
     in the coarse stage; only where ``sensitivities`` are the camera's own (not the generic
-    profile's)."""
+    profile's). ``judge_size=False`` leaves :func:`_sized` out where the caller judges the size
+    on what it reads better (:func:`..inverse.stages.sized_by_readout`)."""
     clock = _Clock()
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape
@@ -437,7 +438,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         evals += p.evaluations
         finished.append(_Fitted(cost, Start(f.start.strategy, f.capture, held=f.start.held), x))
     best = min(finished, key=lambda fit: fit.cost)
-    if size_from_colour and sensitivities is not None and not best.start.held:
+    if size_from_colour and judge_size and sensitivities is not None and not best.start.held:
         best = _sized(best, lambda c, g=None: problem(c, "fine", STAGES[1], g),
                       lambda c, g=None: problem(c, "fine", SIZE_STAGE, g))
     clock.lap("fine")
