@@ -53,6 +53,15 @@ def test_a_larger_lamp_is_read_at_its_size(tmp_path, sigma):
     assert sigma / 1.25 < fit.lobe_sigma < sigma * 1.25
 
 
+def test_a_lamp_near_the_search_ranges_end_is_bracketed(tmp_path):
+    """σ 0.011 from the preset's 0.003: the readout's walk ends at 0.0123 (SIZE_RANGE) with the
+    least misfit there; the golden section then searches between it and the step before (without
+    it: 0.0123 kept, 12 % off)."""
+    preset, loaded = _photo(tmp_path, 0.011)
+    fit = pose_photo(loaded, preset, CAMERA).fit
+    assert 0.011 / 1.04 < fit.lobe_sigma < 0.011 * 1.04
+
+
 def test_the_preset_size_is_kept(tmp_path):
     """A lamp of the preset's own size keeps it (the readout already explained at σ 0.003)."""
     preset, loaded = _photo(tmp_path, preset_sigma := load_preset("cd-default").light.lobe_sigma)
