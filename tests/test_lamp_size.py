@@ -29,9 +29,20 @@ def _tri_phosphor() -> np.ndarray:
     return lines + 0.05
 
 
+_PHOTOS: dict[tuple[float, int], tuple] = {}  # one render per lamp size and scale for the whole module
+
+
 def _photo(tmp_path, sigma: float, upsample: int = UPSAMPLE):
     """An 8-bit 4:2:0 JPEG (1 % noise, EXIF focal length) of cd-default under a lamp of size
-    ``sigma``, ``upsample`` × SIZE pixels, read at SIZE."""
+    ``sigma``, ``upsample`` × SIZE pixels, read at SIZE; rendered once per (sigma, upsample) (the
+    loaded image is never changed by the tests: pose_photo reads it only)."""
+    key = (sigma, upsample)
+    if key not in _PHOTOS:
+        _PHOTOS[key] = _render(tmp_path, sigma, upsample)
+    return _PHOTOS[key]
+
+
+def _render(tmp_path, sigma: float, upsample: int):
     preset = load_preset("cd-default").with_image_size(SIZE)
     scene = Scene(replace(preset, light=replace(preset.light, lobe_sigma=sigma)))
     cube = render_cube(scene, supersample=1)

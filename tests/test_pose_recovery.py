@@ -211,6 +211,7 @@ def test_profile_residuals_survive_a_vanishing_lobe(values, lam, amp, exponent):
         assert np.allclose(small, same, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow  # make test only: 3.5 s, the second slowest check of make test-fast
 @settings(max_examples=8, deadline=None)
 @given(arrays(np.float64, (48, 48, 3), elements=st.floats(0.0, 1.0)),
        st.sampled_from(["cd-default", "tripod-oblique"]))
