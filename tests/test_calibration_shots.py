@@ -339,9 +339,17 @@ def test_a_phone_pair_that_drifted_calibrates_with_finite_gains(tmp_path):
     assert np.all(np.isfinite(alone.spd)) and alone.confidence < 1.0 and alone.warnings
 
 
-@pytest.mark.slow  # two HEIC calibrations of cameras unlike the 52, 8 rounds each (~25 s)
+@pytest.fixture(scope="module")
+def heic_shooter(tmp_path_factory):
+    """camera_files' shooter (its 192 px cube rendered once for the module)."""
+    from training.evaluation import camera_files
+
+    return camera_files.Shooter(tmp_path_factory.mktemp("heic"), 192)
+
+
+@pytest.mark.slow  # two HEIC calibrations of cameras unlike the 52, 8 rounds each (~15 s)
 @pytest.mark.parametrize("camera_index,seed", [(3, 80_102), (1, 30_100)])
-def test_a_camera_unlike_the_52_keeps_its_own_rendering_member(tmp_path, camera_index, seed):
+def test_a_camera_unlike_the_52_keeps_its_own_rendering_member(heic_shooter, camera_index, seed):
     """A phone HEIC of a camera without a profile (generic profile + fitted sensitivities), in the
     calibration's typical rendering (a tone curve per channel, colours clipped at the gamut).
     Judged in the first round, on the generic profile's colours, the wider rendering family took a
@@ -355,7 +363,7 @@ def test_a_camera_unlike_the_52_keeps_its_own_rendering_member(tmp_path, camera_
     from training.evaluation import camera_files
 
     row = next(r for _, r in camera_files.ROWS if r.fmt == "heic" and r.camera == "external")
-    shooter = camera_files.Shooter(tmp_path, 192)
+    shooter = heic_shooter
     camera = load_camera(camera_files.EXTERNAL_CAMERAS[camera_index])
     pipeline = pipeline_for(camera, TYPICAL)
     ref = known_lamp_spd("incandescent")
