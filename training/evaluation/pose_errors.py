@@ -312,12 +312,15 @@ NOTES = """## What the rows mean, and what the evaluation cannot tell apart
 
 
 def report(per_setup: list[tuple[str, float, list[dict]]], n_lamps: int, combined: int, seconds: float,
-           lamps: list[Lamp]) -> str:
+           lamps: list[Lamp], setups: str = "", only: str = "") -> str:
+    """The markdown report; ``setups`` / ``only``: the run's --setups (when not every set-up) and
+    --only, so the header names the command that wrote it."""
+    extra = (f" --setups {setups}" if setups else "") + (f" --only {only!r}" if only else "")
     lines = [
         "# Estimates across capture pose errors, per set-up",
         "",
-        f"`python -m training.evaluation.pose_errors --lamps {n_lamps} --combined-poses {combined}` "
-        "(`make eval-poses`).",
+        f"`python -m training.evaluation.pose_errors --lamps {n_lamps} --combined-poses {combined}{extra}`"
+        + ("" if extra else " (`make eval-poses`)") + ".",
         f"{n_lamps} LSPDD lamps (evaluation only: {', '.join(sorted({lamp.family for lamp in lamps}))}), 8-bit JPEG, "
         f"{100 * NOISE:.0f} % noise per camera pixel, rendered by the numpy twin at {SIZE} px ({UPSAMPLE}× in the "
         "file), each set-up's focal length scaled so the disc spans "
@@ -382,7 +385,9 @@ def main(argv: list[str] | None = None) -> None:
     else:
         per_setup = [_run_setup(w) for w in work]
     lamps = pick_lamps(args.lamps)
-    text = report(per_setup, len(lamps), args.combined_poses, time.perf_counter() - t0, lamps)
+    every = names == list(SETUPS)
+    text = report(per_setup, len(lamps), args.combined_poses, time.perf_counter() - t0, lamps,
+                  setups="" if every else ",".join(names), only=args.only)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(text, encoding="utf-8")
