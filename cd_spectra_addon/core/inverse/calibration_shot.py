@@ -286,7 +286,7 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
         try:
             if processed:
                 judge = r == total - 1 if deferred else fitted is None
-                if n == 1 and fitted is None and chosen is not None and not (deferred and judge):
+                if n == 1 and fitted is None and chosen is not None:
                     fit_check = chosen  # the first shot's processing on its poses: already fitted
                 else:
                     fit_check = _fit_processing(shots, firsts, own, refs, fitted, basis, judge=judge)
