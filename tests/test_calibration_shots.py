@@ -366,15 +366,14 @@ def test_a_camera_unlike_the_52_keeps_its_own_rendering_member(heic_shooter, cam
     from training.evaluation import camera_files
 
     row = next(r for _, r in camera_files.ROWS if r.fmt == "heic" and r.camera == "external")
-    shooter = heic_shooter
     camera = load_camera(camera_files.EXTERNAL_CAMERAS[camera_index])
     pipeline = pipeline_for(camera, TYPICAL)
     ref = known_lamp_spd("incandescent")
-    shot = shooter.shoot(row, ref, camera, camera_files.UNKNOWN_CAMERA, pipeline, seed=seed, tag="calibration")
+    shot = heic_shooter.shoot(row, ref, camera, camera_files.UNKNOWN_CAMERA, pipeline, seed=seed, tag="calibration")
     model = load_model()
     profile, generic, _, _ = resolve_camera("auto", shot, model)
     assert generic
-    cal, _ = fit_calibration(shot, ref, shooter.scene.preset, profile, generic, pipeline=True,
+    cal, _ = fit_calibration(shot, ref, heic_shooter.scene.preset, profile, generic, pipeline=True,
                              prior=camera_prior_for(model), name="t", metadata=new_metadata("t", "CIE A"))
     assert (cal.pipeline.tone, cal.pipeline.gamut) == (pipeline.tone, pipeline.gamut) == ("channel", "clip")
     assert cal.sensitivities is not None and np.all(np.isfinite(cal.gains))
