@@ -332,7 +332,8 @@ def pose_photo(
     by_readout = (fitted and near_axis(preset) and not generic_camera and not image.is_grey
                   and not image.processed and image.colour_px <= 1.0)
     if fit is None:
-        linear = rgb - rough_offset(rgb, excluded)
+        offset = rough_offset(rgb, excluded)
+        linear = rgb - offset if np.any(offset != 0.0) else rgb  # a dark room's photo: no copy
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations,
                        size_from_colour=not generic_camera, judge_size=not by_readout)

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..numerics.least_squares import levenberg_marquardt
-from ..photo.resample import box_downsample, box_factor, channel_sum
+from ..photo.resample import box_downsample, box_factor, brightest, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, project
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
@@ -72,8 +72,12 @@ TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lin
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
 # ...nor LM from a start that leaves more than this unexplained: such a start is another capture
 # altogether (phone-near-axis: the rings' far centre at 0.46 against 0.0002 fitted), and LM from
-# it ran its every iteration to end where it began (bench/bench.md: 130 of 390 ms).
-FAR_START_COST = 0.3
+# it ran its every iteration to end where it began (bench/bench.md: 130 of 390 ms). 0.3 let the
+# pattern's start of phone-distant-lamp's nominal photo (0.21 against 0.0007) run 14 steps to
+# 0.18 (100 of its 270 ms). Over pose_errors --lamps 2 (152 fits) no start from above 0.15 ended
+# meaningfully below the fit it followed; the farthest that did started at 0.087 (cd-default,
+# the rings: 0.00017 against 0.00097).
+FAR_START_COST = 0.15
 # Where the disc's outline shows, the fit is judged on the pixels inside it (semi-axes × this):
 # a lit table, a lamp in the frame or objects around the disc are not the disc's to explain, and
 # a wide lobe over them must not look like a rainbow. Elsewhere on the whole photo: a region
@@ -164,8 +168,7 @@ class _Level:
         n_usable = int(np.sum(usable))
         half = min(count // 2, n_usable)
         if half > 0:
-            ranked = np.where(usable, lum, -np.inf)
-            bright = np.argpartition(-ranked, half - 1)[:half]
+            bright = brightest(lum, usable, half)
         else:
             bright = np.zeros(0, dtype=np.int64)
         usable[bright] = False
@@ -307,7 +310,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     outline = disc_ellipse(rgb, saturated)
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
-        rgb = np.clip(rgb - disc_base(rgb, outline, saturated), 0.0, None)
+        rgb = rgb - disc_base(rgb, outline, saturated)
+        np.maximum(rgb, 0.0, out=rgb)  # (in place: one fresh photo-sized array, not two)
     factor = box_factor(max(height, width), COARSE_SIDE)
     coarse = _Level.of(rgb, saturated, factor, focal_px)
     fine = _Level.of(rgb, saturated, 1, focal_px)
