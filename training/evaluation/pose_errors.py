@@ -2,7 +2,7 @@
 (``make eval-poses`` → bench/pose_errors.md and .json).
 
     python -m training.evaluation.pose_errors [--lamps 6] [--setups phone-near-axis,...] [--only TEXT]
-        [--combined-poses 8] [--jobs 1] [--out bench/pose_errors.md]
+        [--combined-poses 8] [--jobs 1] [--synthetic] [--out bench/pose_errors.md]
 
 For each set-up (``phone-near-axis``, ``tripod-oblique``, ``phone-distant-lamp``, and ``cd-default``
 as the reference) and each row — nominal, the lamp moved ±5 mm or swung ±3°, the camera moved
@@ -135,8 +135,18 @@ def cases_for(preset: Preset, combined_poses: int) -> list[Case]:
     ]
 
 
-def pick_lamps(count: int) -> list[Lamp]:
-    """``count`` LSPDD lamps spread evenly over the file's order (deterministic)."""
+SYNTHETIC_SEED = 4242  # the --synthetic lamps' draw from the training prior
+
+
+def pick_lamps(count: int, synthetic: bool = False) -> list[Lamp]:
+    """``count`` LSPDD lamps spread evenly over the file's order (deterministic); ``synthetic``:
+    ``count`` draws of the training prior (sample_spds, seeded) instead — what the pose fit's
+    settings are chosen on (the LSPDD lamps are for evaluation only)."""
+    if synthetic:
+        from training.learning.spd_prior import sample_spds
+
+        spds, families = sample_spds(count, np.random.default_rng(SYNTHETIC_SEED))
+        return [Lamp(f"synthetic {i} ({f})", f, "training prior", s) for i, (s, f) in enumerate(zip(spds, families))]
     lamps = lspdd_lamps()
     idx = np.unique(np.linspace(0, len(lamps) - 1, min(count, len(lamps))).round().astype(int))
     return [lamps[i] for i in idx]
@@ -312,16 +322,18 @@ NOTES = """## What the rows mean, and what the evaluation cannot tell apart
 
 
 def report(per_setup: list[tuple[str, float, list[dict]]], n_lamps: int, combined: int, seconds: float,
-           lamps: list[Lamp], setups: str = "", only: str = "") -> str:
-    """The markdown report; ``setups`` / ``only``: the run's --setups (when not every set-up) and
-    --only, so the header names the command that wrote it."""
-    extra = (f" --setups {setups}" if setups else "") + (f" --only {only!r}" if only else "")
+           lamps: list[Lamp], setups: str = "", only: str = "", synthetic: bool = False) -> str:
+    """The markdown report; ``setups`` / ``only`` / ``synthetic``: the run's --setups (when not every
+    set-up), --only and --synthetic, so the header names the command that wrote it."""
+    extra = (f" --setups {setups}" if setups else "") + (f" --only {only!r}" if only else "") \
+        + (" --synthetic" if synthetic else "")
+    kind = "synthetic lamps drawn from the training prior" if synthetic else "LSPDD lamps (evaluation only"
     lines = [
         "# Estimates across capture pose errors, per set-up",
         "",
         f"`python -m training.evaluation.pose_errors --lamps {n_lamps} --combined-poses {combined}{extra}`"
         + ("" if extra else " (`make eval-poses`)") + ".",
-        f"{n_lamps} LSPDD lamps (evaluation only: {', '.join(sorted({lamp.family for lamp in lamps}))}), 8-bit JPEG, "
+        f"{n_lamps} {kind}{' (' if synthetic else ': '}{', '.join(sorted({lamp.family for lamp in lamps}))}), 8-bit JPEG, "
         f"{100 * NOISE:.0f} % noise per camera pixel, rendered by the numpy twin at {SIZE} px ({UPSAMPLE}× in the "
         "file), each set-up's focal length scaled so the disc spans "
         f"{DISC_SPAN_PX} px (a centred crop of a 12–24 MP photo); estimated by `estimate_image` with the shipped "
@@ -345,10 +357,10 @@ def report(per_setup: list[tuple[str, float, list[dict]]], n_lamps: int, combine
     return "\n".join(lines)
 
 
-def _run_setup(args: tuple[str, int, int, str, bool]) -> tuple[str, float, list[dict]]:
-    name, n_lamps, combined, only, truth = args
+def _run_setup(args: tuple[str, int, int, str, bool, bool]) -> tuple[str, float, list[dict]]:
+    name, n_lamps, combined, only, truth, synthetic = args
     preset, k = crop_preset(name)
-    lamps = pick_lamps(n_lamps)
+    lamps = pick_lamps(n_lamps, synthetic)
     model = load_model()
     results = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -371,12 +383,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--combined-poses", type=int, default=8, help="random captures in the combined row")
     parser.add_argument("--jobs", type=int, default=1, help="set-ups evaluated in parallel processes")
     parser.add_argument("--no-truth", action="store_true", help="skip the estimate at the true pose (faster)")
+    parser.add_argument("--synthetic", action="store_true",
+                        help="lamps drawn from the training prior instead of LSPDD: for choosing the pose fit's settings")
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
     names = [n for n in args.setups.split(",") if n]
-    work = [(n, args.lamps, args.combined_poses, args.only, not args.no_truth) for n in names]
+    work = [(n, args.lamps, args.combined_poses, args.only, not args.no_truth, args.synthetic) for n in names]
     if args.jobs > 1:
         from multiprocessing import get_context
 
@@ -384,10 +398,10 @@ def main(argv: list[str] | None = None) -> None:
             per_setup = pool.map(_run_setup, work)
     else:
         per_setup = [_run_setup(w) for w in work]
-    lamps = pick_lamps(args.lamps)
+    lamps = pick_lamps(args.lamps, args.synthetic)
     every = names == list(SETUPS)
     text = report(per_setup, len(lamps), args.combined_poses, time.perf_counter() - t0, lamps,
-                  setups="" if every else ",".join(names), only=args.only)
+                  setups="" if every else ",".join(names), only=args.only, synthetic=args.synthetic)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(text, encoding="utf-8")

@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["levenberg_marquardt", "cauchy"]
+__all__ = ["levenberg_marquardt", "valley_step", "cauchy"]
 
 Vector = NDArray[np.float64]
 
@@ -72,6 +72,36 @@ def levenberg_marquardt(residuals: Callable[[Vector], Vector], x0: Vector, steps
         if not improved or rel < tol:
             break
     return x, cost, evals
+
+
+def valley_step(cost: Callable[[Vector], float], x: Vector, cost_x: float, jacobian: NDArray[np.float64],
+                step: float, reach: float, gain: float) -> Vector | None:
+    """A point further down the valley a least-squares fit stopped in at ``x``, or None.
+
+    LM creeps along a long, flat valley with tiny relative gains, so its tolerance ends it early.
+    The valley's direction is the least eigenvector of JᵀJ (``jacobian`` at or near ``x``) scaled
+    by its diagonal, normalised to a largest component of 1. ``cost`` is tried ``step`` either
+    way; where one side is lower than ``cost_x`` by the relative ``gain``, the step doubles while
+    the cost keeps falling, up to ``reach``. Two evaluations where x sits at the valley's bottom.
+    """
+    jtj = jacobian.T @ jacobian
+    scale = np.sqrt(np.diag(jtj))
+    if not np.all(np.isfinite(jtj)) or not np.all(scale > 0):
+        return None
+    _, vectors = np.linalg.eigh(jtj / np.outer(scale, scale))
+    direction = vectors[:, 0] / scale
+    direction /= np.max(np.abs(direction))
+    tries = {t: cost(x + t * direction) for t in (-step, step)}
+    t = min(tries, key=lambda k: tries[k])
+    if not tries[t] < (1.0 - gain) * cost_x:
+        return None
+    while abs(t) < reach:
+        further = cost(x + 2.0 * t * direction)
+        if not further < tries[t]:
+            break
+        t *= 2.0
+        tries[t] = further
+    return x + t * direction
 
 
 def cauchy(r: NDArray[np.float64]) -> NDArray[np.float64]:
