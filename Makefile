@@ -78,7 +78,6 @@ demo: setup
 	@mkdir -p out/demo
 	$(PY) -m cd_spectra_addon estimate samples/cd_photo.jpg --json out/demo/result.json \
 		--plot out/demo/spd.png --blend out/demo/scene.blend
-	@echo "wrote out/demo/result.json, out/demo/spd.png, out/demo/scene.blend"
 
 # Re-make samples/cd_photo.jpg: CIE FL11 through the Cycles forward model (seeded), in the default
 # preset (render_photo's --preset default is the estimator's, so the demo reads it as it was made).
