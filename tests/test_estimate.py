@@ -2,6 +2,7 @@
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
 from cd_spectra_addon.core.inverse.estimate import estimate_photo
+from cd_spectra_addon.core.inverse.stages import brightest_level
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
@@ -205,3 +207,23 @@ def test_band_blend_puts_both_estimates_at_the_photos_brightness():
     w = np.clip((WAVELENGTHS_NM - 500) / 40, 0, 1)
     out = band_blend(readout, matrix, learned, physics, w)
     assert np.allclose(out, truth / truth.max(), atol=1e-9)
+
+
+def test_a_bright_photo_read_with_the_wrong_preset_is_not_called_dark():
+    """The demo photo (phone-near-axis) read as tripod-oblique finds no rainbow: the refusal must
+    not blame the exposure — its rainbow covers well under 0.5 % of the pixels but peaks at 0.8 of
+    full scale (a 99.5th-percentile test called it "very dark")."""
+    sample = Path(__file__).resolve().parents[1] / "samples" / "cd_photo.jpg"
+    with pytest.raises(NoDiscError) as err:
+        estimate_photo(sample, preset="tripod-oblique")
+    assert "dark" not in str(err.value) and "exposure" not in str(err.value)
+
+
+def test_the_brightest_level_ignores_clipped_pixels_and_sees_a_small_rainbow():
+    rgb = np.full((1000, 1000, 3), 0.001)
+    rgb[:20, :10] = 0.5  # a 200-pixel rainbow: 2e-4 of the photo
+    excluded = np.zeros((1000, 1000), bool)
+    assert brightest_level(rgb, excluded) == pytest.approx(0.5)
+    rgb[:20, :10] = 1.0  # ... clipped: only the dark rest counts
+    assert brightest_level(rgb, np.any(rgb >= 1.0, axis=2)) == pytest.approx(0.001)
+    assert brightest_level(rgb, np.ones((1000, 1000), bool)) == 0.0

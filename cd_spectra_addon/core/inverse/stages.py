@@ -112,6 +112,20 @@ SIZE_SMOOTHNESS = 1e-2 * SMOOTHNESS
 # 0.3 % the rainbow is no longer found (bench/reliability.md).
 DIM_LEVEL_8BIT = 0.01
 
+# The photo's brightest part for that test: this share of its usable pixels lies above it. A
+# rainbow may cover a few hundred pixels of a megapixel (the demo photo read with the wrong
+# preset: 99.5th percentile 0.003, told "very dark" although its rainbow peaks at 0.8).
+BRIGHTEST_SHARE = 1e-4
+
+
+def brightest_level(rgb: NDArray[np.float64], excluded: NDArray[np.bool_]) -> float:
+    """The level BRIGHTEST_SHARE of the usable (not clipped, valid) pixels' channels reach."""
+    usable = rgb[~np.asarray(excluded)]
+    if usable.size == 0:
+        return 0.0
+    return float(np.quantile(usable, 1.0 - BRIGHTEST_SHARE))
+
+
 __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_photo", "spectrum", "joint_spectrum",
            "network_estimate", "network_say", "fuse", "OPERATING_POINTS", "model_prior", "fusion_settings", "band_weight", "fuse_rows",
            "tail_settings", "tailed",
@@ -571,7 +585,7 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         hint = ""
         if posed.clipped_share > 0.2:
             hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
-        elif image.encoding.endswith("-8") and float(np.percentile(rgb, 99.5)) < DIM_LEVEL_8BIT:
+        elif image.encoding.endswith("-8") and brightest_level(rgb, excluded) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
         elif image.processed and (posed.calibration is None or posed.calibration.pipeline is None):
             # The advice below reads the set-up from the fit, which the file's processed colours
