@@ -250,8 +250,7 @@ class _Problem:
             return z
 
         def residuals(y: NDArray[np.float64]) -> NDArray[np.float64]:
-            z = full(y)
-            return np.concatenate([self.objective(z), PRIOR_WEIGHT * z / PRIOR_SCALE])
+            return self.residuals_with_prior(full(y))
 
         def jacobian(y: NDArray[np.float64]) -> NDArray[np.float64]:
             self.last_jacobian = np.concatenate([self.objective.jacobian(full(y), free), prior_rows])
@@ -263,10 +262,13 @@ class _Problem:
             print(f"  LM {self.evaluations - before} evals, cost {cost:.5f}")
         return full(y), cost
 
+    def residuals_with_prior(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The photo's residuals at the parameters ``x``, then the prior's (what LM minimises)."""
+        return np.concatenate([self.objective(x), PRIOR_WEIGHT * x / PRIOR_SCALE])
+
     def cost_with_prior(self, x: NDArray[np.float64]) -> float:
-        r = self.objective(x)
-        prior = PRIOR_WEIGHT * x / PRIOR_SCALE
-        return float(r @ r + prior @ prior)
+        r = self.residuals_with_prior(x)
+        return float(r @ r)
 
     def along_valley(self, x: NDArray[np.float64], cost: float, free: NDArray[np.int64] = FREE, stage: int = 1
                      ) -> tuple[NDArray[np.float64], float]:
