@@ -34,7 +34,7 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 PYTEST_WORKERS ?= 2
 PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile
 
-.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-cross-check eval-poses eval-real eval-rendition bench bench-render tune-solver reliability extension bake-colour bake-cameras diagrams vector-graphic clean
+.PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-cross-check eval-poses eval-real eval-rendition bench bench-render tune-solver tune-lines reliability extension bake-colour bake-cameras diagrams vector-graphic clean
 
 $(STAMP): requirements.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info[:2] == (3, 11) else "Python 3.11 is required (Blender 4.5 / bpy 4.5): set PYTHON=/path/to/python3.11")'
@@ -155,6 +155,10 @@ bench-render: setup
 
 tune-solver: setup
 	$(PY) -m training.learning.tune_solver --out bench/solver_tuning.md
+
+# How far narrow lines may stand out of the Gaussian prior (solve.LINE_ALLOWANCE), synthetic only (~3 min).
+tune-lines: setup
+	$(PY) -m training.learning.tune_lines --out bench/line_tuning.md
 
 # Hostile inputs, confidence sweeps, a 1000-estimate soak and forward-model extremes.
 reliability: setup

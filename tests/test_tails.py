@@ -1,4 +1,5 @@
-"""The blind tails from physics (core.spectrum.tails) and the band rule without islands (issue 21).
+"""The blind tails from physics (core.spectrum.tails), the band rule without islands and the
+solve's line pass (issue 21).
 
 Photos are rendered by the numpy twin at the reference geometry; the thresholds come from the
 shipped model's metadata (chosen on synthetic spectra, bench/tails_tuning.md).
@@ -36,14 +37,14 @@ def model():
     return load_model()
 
 
-def _solve(capture, model, spd, noise=0.01, seed=0):
+def _solve(capture, model, spd, noise=0.01, seed=0, lines=0.0):
     """Physics + prior (the rows' units) and the rows of a photo of ``spd``, read with the true capture."""
     scene, cube, meter = capture
     img, _ = photo.synthesize(cube, spd, CAMERA, 1.0, noise, np.random.default_rng(seed), meter)
     prof = readout.extract_readout(img, None, scene)
     rows = solve.rows_for(prof, forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), CAMERA))
     prior = model_prior(model)
-    return solve.solve_prior(rows, prior[0], precision=prior[1])[:rows.n], rows
+    return solve.solve_prior(rows, prior[0], precision=prior[1], lines=lines)[:rows.n], rows
 
 
 def _warm_led():
@@ -254,3 +255,35 @@ def test_the_batched_temperature_search_is_the_nnls_one(capture, model, kind):
     batched = tails._grid_chi2(spectral, free, free.T @ free, free.T @ y, y, yy, chi2)
     np.testing.assert_allclose(batched, reference, rtol=1e-9, atol=1e-12 * yy)
     assert bound > 0 or kind != "planck"  # the clamped patterns were exercised
+
+
+def _halophosphate():
+    """A halophosphate tube as the CIE tabulates one: broad bands, each Hg line in one 5 nm bin."""
+    spd = 0.25 + 0.35 * np.exp(-0.5 * ((LAM - 480) / 45) ** 2) + 0.5 * np.exp(-0.5 * ((LAM - 580) / 35) ** 2)
+    for centre, height in ((405, 0.5), (435, 1.6), (545, 1.3), (580, 0.3)):
+        spd[np.argmin(np.abs(LAM - centre))] += height
+    return peak_normalise(spd)
+
+
+def test_the_line_pass_gives_a_resolved_line_its_peak_back(capture, model):
+    """Without the pass the 436 nm line's energy spreads into its neighbours and the peak-normalised
+    continuum reads ~25 % high (the CIE fluorescent tables' error in bench/eval.md)."""
+    spd = _halophosphate()
+    plain, _ = _solve(capture, model, spd)
+    sharp, _ = _solve(capture, model, spd, lines=solve.LINE_ALLOWANCE)
+    e_plain, e_sharp = (compare_spds(x / x.max(), spd) for x in (plain, sharp))
+    assert e_sharp["mae_400_700"] < 0.7 * e_plain["mae_400_700"]
+    assert e_sharp["delta_uv_prime"] <= e_plain["delta_uv_prime"] + 2e-4
+    k = np.argmin(np.abs(LAM - 435))
+    assert abs(sharp[k] - plain[k]) > 0  # the line bin itself moved
+    assert sharp[k - 1] < plain[k - 1] and sharp[k + 1] < plain[k + 1]  # its neighbours gave energy back
+
+
+@pytest.mark.parametrize("spd", [planck_spd(2856.0), known_lamp_spd("D65"), _warm_led()], ids=["A", "D65", "led"])
+def test_the_line_pass_leaves_a_smooth_spectrum_as_it_was(capture, model, spd):
+    spd = peak_normalise(spd)
+    plain, _ = _solve(capture, model, spd)
+    sharp, _ = _solve(capture, model, spd, lines=solve.LINE_ALLOWANCE)
+    e_plain, e_sharp = (compare_spds(x / x.max(), spd)["mae_400_700"] for x in (plain, sharp))
+    assert e_sharp <= e_plain + 0.002
+    assert np.all(np.isfinite(sharp)) and np.all(sharp >= 0)

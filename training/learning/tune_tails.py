@@ -80,7 +80,7 @@ def tail_cases(n: int, seed: int = SEED, size: int = 192, families: tuple[str, .
         prof = readout.extract_readout(img, None, scene)
         matrix = forward_matrix.feature_matrix(forward_matrix.bin_response(scene, prof), cam)
         rows = solve.rows_for(prof, matrix)
-        x = solve.solve_prior(rows, prior[0], precision=prior[1])[:rows.n]
+        x = solve.solve_prior(rows, prior[0], precision=prior[1], lines=solve.LINE_ALLOWANCE)[:rows.n]
         if not x.max() > 0:
             continue
         out.append(TailCase(fam, np.asarray(spd, dtype=np.float64), x, rows, planck_fit(rows)))

@@ -53,8 +53,8 @@ from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
 from ..spectrum.joint import JointSolve, edge_floors, joint_solve, usable
 from ..spectrum.tails import TailSettings, widen_std, with_tails
-from ..spectrum.solve import (PRIOR_STRENGTH, SMOOTHNESS, GaussianPrior, Rows, blend_bands, physics_solve, prior_solve, rows_for,
-                             solve_fused, solve_physics, solve_prior)
+from ..spectrum.solve import (LINE_ALLOWANCE, PRIOR_STRENGTH, SMOOTHNESS, GaussianPrior, Rows, blend_bands,
+                             physics_solve, prior_solve, rows_for, solve_fused, solve_physics, solve_prior)
 from ..pose.starts import CHEAP, ESCALATIONS
 from .result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
 
@@ -625,7 +625,8 @@ def read_photo(image: LinearImage, preset: Preset, camera: CameraProfile, *,
 
 def physics_spd(reading: Reading, prior: tuple[GaussianPrior, NDArray[np.float64]] | None) -> NDArray[np.float64]:
     """The physics solve in the photo's units: under the Gaussian prior (with its precision
-    matrix) when given, else smoothness-regularised only."""
+    matrix) when given, else smoothness-regularised only. The network's input: without the
+    estimate's line pass (:data:`LINE_ALLOWANCE`), as the network was trained."""
     if prior is not None:
         return prior_solve(reading.readout, reading.matrix, prior[0], precision=prior[1])
     return physics_solve(reading.readout, reading.matrix)
@@ -738,7 +739,7 @@ def _joint(readings: Sequence[Reading], prior: tuple[GaussianPrior, NDArray[np.f
         strength = PRIOR_STRENGTH * photo_count(photos, weights)
 
         def solve(rows: Rows) -> NDArray[np.float64]:
-            return solve_prior(rows, prior[0], strength, precision=prior[1])
+            return solve_prior(rows, prior[0], strength, precision=prior[1], lines=LINE_ALLOWANCE)
     solved = joint_solve(photos, solve, weights)
     if not np.any(solved.spd > 0):
         which = "the photo holds" if len(readings) == 1 else "none of the photos holds"
