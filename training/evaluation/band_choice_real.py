@@ -2,6 +2,8 @@
 
     python -m training.evaluation.band_choice_real [--every 1] [--synthetic 64] [--model models/cd_spectra.onnx]
 
+Writes the report and its figures beside it (``.json``: per band and overall, for the model card).
+
 ``training.learning.tune_fusion`` decides on synthetic photos where the network is used and where
 physics + prior is (``fusion.band_weight``). This reports, for honesty and never to revise that
 choice, how the three estimates do on the measured lamps of ``make eval`` (LSPDD + colour-science
@@ -15,6 +17,7 @@ disagree, the lamps' spectra make the difference, not the capture.
 from __future__ import annotations
 
 import argparse
+import json
 import tempfile
 import time
 from dataclasses import replace
@@ -126,6 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     text = report(real, model, synthetic)
     print(text)
     args.out.write_text(text, encoding="utf-8")
+    bands = [list(b) for b in BANDS_NM]
+    args.out.with_suffix(".json").write_text(json.dumps({"bands_nm": bands, "real": real, "synthetic": synthetic},
+                                                        indent=1) + "\n", encoding="utf-8")
     return 0
 
 

@@ -19,6 +19,7 @@ from training.learning.spd_prior import FAMILIES
 from training.simulation.basis import REPO
 
 EVAL = REPO / "bench" / "eval.json"
+BAND_CHOICE = REPO / "bench" / "band_choice_real.json"
 
 
 def _tails_lines(tails: dict[str, Any] | None) -> list[str]:
@@ -49,11 +50,40 @@ def _fusion_lines(fusion: dict[str, Any] | None) -> list[str]:
     return lines
 
 
+def _wins_lines(fusion: dict[str, Any] | None, real: dict[str, Any] | None) -> list[str]:
+    """What the network wins where it is used: on the synthetic photos that chose the bands (the
+    model's metadata), then on the measured lamps (bench/band_choice_real.json, run afterwards)."""
+    rows = ((fusion or {}).get("bands") or {}).get("uncalibrated") or []
+    used = [r for r in rows if r["network"]]
+    if not used:
+        return []
+    parts = [f"{r['band'][0]}–{r['band'][1]} nm: MAE {r['mae_network']:.4f} against physics + prior's "
+             f"{r['mae_prior']:.4f} (± {r['se']:.4f})"
+             + (", and ahead on families its probes never saw (`bench/heldout_families.md`)" if r.get("network_unseen")
+                else "") for r in used]
+    lines = ["- **What the network wins** (MAE per band, peak-normalised as the fusion tuning scores): on the"
+             " synthetic photos that chose the bands (physics + prior as it was then), " + "; ".join(parts) + "."]
+    if real is not None:
+        bands = [tuple(b) for b in real["bands_nm"]]
+        rl = real["real"]
+        per = []
+        for r in used:
+            i = bands.index(tuple(r["band"]))
+            per.append(f"{r['band'][0]}–{r['band'][1]} nm {rl['blend']['bands'][i]:.4f} against "
+                       f"{rl['prior']['bands'][i]:.4f}")
+        b, p = rl["blend"], rl["prior"]
+        lines.append(f"  On the {rl['n']} measured lamps afterwards (`bench/band_choice_real.md`, never used to choose): "
+                     + "; ".join(per) + f"; over the whole SPD MAE 400–700 {b['mae_400_700']:.4f} against "
+                     f"{p['mae_400_700']:.4f}, 380–780 {b['mae_380_780']:.4f} against {p['mae_380_780']:.4f}, "
+                     f"Δu'v' {b['delta_uv_prime']:.4f} against {p['delta_uv_prime']:.4f}.")
+    return lines
+
+
 def _f(v: Any, digits: int = 4) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
 
-def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
+def render(meta: dict[str, Any], ev: dict[str, Any] | None, band_choice: dict[str, Any] | None = None) -> str:
     t = meta["training"]
     lines = [
         f"# Model card: {MODEL_NAME} `{meta['version']}`",
@@ -104,6 +134,7 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None) -> str:
         f" the basis cubes already rendered (rendering the {len(t['cubes'])} cubes comes on top: `bench/render.md`,"
         " `bench/buildable_cubes.md`).",
         *_fusion_lines(meta.get("fusion")),
+        *_wins_lines(meta.get("fusion"), band_choice),
         *_tails_lines(meta.get("tails")),
         "- **Never used for training, tuning or selection:** the LSPDD lamps and colour-science's measured sources and",
         "  CIE illuminants.",
@@ -149,8 +180,11 @@ def main() -> int:
     ev = json.loads(EVAL.read_text(encoding="utf-8")) if EVAL.is_file() else None
     if ev is not None and ev.get("model_version") != meta["version"]:
         ev = None  # the evaluation is of another model
+    band_choice = json.loads(BAND_CHOICE.read_text(encoding="utf-8")) if BAND_CHOICE.is_file() else None
+    if band_choice is not None and band_choice["real"].get("model_version") != meta["version"]:
+        band_choice = None  # measured for another model
     out = MODEL_DIR / "MODEL_CARD.md"
-    out.write_text(render(meta, ev), encoding="utf-8")
+    out.write_text(render(meta, ev, band_choice), encoding="utf-8")
     print(f"wrote {out}")
     return 0
 
