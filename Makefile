@@ -121,7 +121,7 @@ eval-camera-files: setup
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of
 # bench/camera_files.md; ~20 min on one core).
 eval-camera-renderings: setup
-	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
 
 # Capture pose errors (lamp beside the lens, camera off centre, tilt, ambient, lamp size): numpy twin, minutes.
 # Per set-up pose errors at a real photo's resolution (simulator). 12 lamps ≈ 1 h on the shared
