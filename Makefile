@@ -116,7 +116,7 @@ eval: setup eval-camera-files eval-poses
 # in-camera CIE A shot over 3 draws of its noise; ~15 min on one core, then camera_renderings ~6 min).
 eval-camera-files: setup
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --calibration-draws 3 --out bench/camera_files.md
-	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
 
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of
 # bench/camera_files.md; ~20 min on one core).
