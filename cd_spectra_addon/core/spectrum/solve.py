@@ -157,8 +157,9 @@ def solve_prior(rows: Rows, prior: GaussianPrior, strength: float = PRIOR_STRENG
     into its neighbours (a fluorescent tube's 436 nm line read at 0.35 / 1.52 / 0.44 of the
     continuum's level where it is 0.07 / 2.0 / 0.08 - its energy right, its peak, and so every
     peak-normalised value, 30 % off). Each bin's variance grows by ``lines`` × its excess over
-    the first pass's running median (squared, peak-normalised): a sparse-Bayesian step,
-    which leaves a smooth spectrum's solve as it was.
+    the first pass's running median (squared, peak-normalised): a sparse-Bayesian step.
+    A smooth spectrum's bins barely stand out, so its solve barely moves (CIE A, D65 and a
+    white LED within 0.002 MAE in tests/test_tails.py).
     """
     n = rows.n
     first = solve_physics(rows, smoothness)
