@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 
 from cd_spectra_addon.core.calibration.calibration import (CROSS_CHECK_LIMIT, EXPLAIN_LIMIT, Calibration,
                                                            calibration_check, new_metadata)
+from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.calibration_shot import Shot, calibrate_shots
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import LinearImage
@@ -159,20 +160,32 @@ def run(photographer: Photographer, setting: Setting, kind: str, rendering: str 
     cal, cal_meta = None, {}
     t0 = time.perf_counter()
     if calibration:
-        shots = [shoot(known_lamp_spd(lamp), 99 + k, f"calibration{k}") for k, lamp in enumerate(calibration)]
-        cal, cal_meta = calibrate_like_the_cli(shots, calibration, profile, model, preset)
+        try:
+            shots = [shoot(known_lamp_spd(lamp), 99 + k, f"calibration{k}") for k, lamp in enumerate(calibration)]
+            cal, cal_meta = calibrate_like_the_cli(shots, calibration, profile, model, preset)
+        except CDSpectraError as exc:  # the product refused the calibration shot: a row that says so
+            return {"n": 0, "refused": len(lamps), "refused_calibration": str(exc),
+                    "calibration_seconds": time.perf_counter() - t0, "calibration": {}, "warned_processing": 0.0}
     cal_seconds = time.perf_counter() - t0
-    rows = []
+    rows, refused = [], []
     for i, lamp in enumerate(lamps):
-        est = estimate_image(shoot(lamp.spd, 1000 + i, "photo"), preset=preset, camera=profile, calibration=cal,
-                             model=model)
+        try:
+            est = estimate_image(shoot(lamp.spd, 1000 + i, "photo"), preset=preset, camera=profile, calibration=cal,
+                                 model=model)
+        except CDSpectraError as exc:  # a rendering can make the product refuse a photo: counted, not hidden
+            refused.append(str(exc))
+            continue
         rows.append({**metrics(est.spd, lamp.spd), "confidence": est.confidence, "warnings": est.warnings})
-    out = summary(rows)
+    out = summary(rows) if rows else {"n": 0}
+    out["refused"] = len(refused)
+    if refused:
+        out["refusals"] = sorted(set(refused))[:3]
     out["calibration_seconds"] = cal_seconds
     out["calibration"] = {k: v for k, v in cal_meta.items() if k in ("unexplained", "processed", "cross_check")}
     if cal is not None and "reads_other_lamps" in calibration_check(cal):
         out["calibration"]["reads_other_lamps"] = calibration_check(cal)["reads_other_lamps"]
-    out["warned_processing"] = float(np.mean([any("shoot RAW" in w for w in r["warnings"]) for r in rows]))
+    out["warned_processing"] = float(np.mean([any("shoot RAW" in w for w in r["warnings"]) for r in rows])) if rows \
+        else 0.0
     return out
 
 
@@ -202,12 +215,18 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
              "|---|---|---|---|---|---|---|"]
     refs = {(r["setting"], r["row"]): r for r in results}
     for r in results:
+        if r.get("n", 0) == 0:
+            why = r.get("refused_calibration") or "every photo refused"
+            lines.append(f"| {r['setting_label']} | {r['row']} | refused | – | – | – | **{why[:160]}** |")
+            continue
         ref = refs.get((r["setting"], r["reference"])) if r.get("reference") else None
         ratio = f"{r['mae_400_700'] / ref['mae_400_700']:.2f}" if ref else "–"
         share = r.get("calibration", {}).get("unexplained")
         explains = "–" if share is None else (f"{100 * share:.1f} % unexplained" + (
             " — **says it cannot**" if share > EXPLAIN_LIMIT else ""))
         explains += _cross_check_cell(r.get("calibration", {}))
+        if r.get("refused"):
+            explains += f"; **{r['refused']} of {r['refused'] + r['n']} photos refused**"
         lines.append(f"| {r['setting_label']} | {r['row']} | {r['mae_400_700']:.4f} ({r['mae_400_700_median']:.4f}) | "
                      f"{ratio} | {r['delta_uv_prime']:.4f} | {r['confidence']:.2f} | {explains} |")
     lines += ["", "The last column also gives, for a CIE A + D65 calibration, its cross-check as `calibrate` prints it: "
@@ -318,9 +337,13 @@ def main(argv: list[str] | None = None) -> int:
                 out = run(photographer, setting, kind, render, lamps, model, calibration, profile)
                 out.update(setting=setting.key, setting_label=setting.label, row=label, reference=reference)
                 results.append(out)
-                print(f"{setting.key} | {label}: MAE {out['mae_400_700']:.4f} Δu'v' {out['delta_uv_prime']:.4f} "
-                      f"conf {out['confidence']:.2f} cal {out['calibration']} [{time.perf_counter() - t1:.0f} s]",
-                      flush=True)
+                if out.get("n", 0):
+                    print(f"{setting.key} | {label}: MAE {out['mae_400_700']:.4f} Δu'v' {out['delta_uv_prime']:.4f} "
+                          f"conf {out['confidence']:.2f} refused {out['refused']} cal {out['calibration']} "
+                          f"[{time.perf_counter() - t1:.0f} s]", flush=True)
+                else:
+                    print(f"{setting.key} | {label}: refused ({out.get('refused_calibration', 'every photo')})",
+                          flush=True)
     text = report(results, len(lamps), args.size, time.perf_counter() - t0, real_note)
     if args.write:
         write_section(text, REPO / "bench" / "camera_files.md")
