@@ -216,7 +216,7 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
     refs = {(r["setting"], r["row"]): r for r in results}
     for r in results:
         if r.get("n", 0) == 0:
-            why = r.get("refused_calibration") or "every photo refused"
+            why = re.sub(r"(/[^\s/]+)+/", "", r.get("refused_calibration") or "every photo refused")  # no tmp paths
             lines.append(f"| {r['setting_label']} | {r['row']} | refused | – | – | – | **{why[:160]}** |")
             continue
         ref = refs.get((r["setting"], r["reference"])) if r.get("reference") else None
