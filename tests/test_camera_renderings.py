@@ -5,7 +5,8 @@ import numpy as np
 
 from cd_spectra_addon.core.spectrum.model import load_model
 from training.evaluation.camera_renderings import SETTINGS, Photographer, report, run
-from training.evaluation.lamps import lspdd_lamps
+from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd, planck_spd
+from training.evaluation.lamps import Lamp
 
 
 def _black(native, camera):
@@ -14,7 +15,8 @@ def _black(native, camera):
 
 def test_refused_photos_and_a_refused_calibration_are_rows_that_say_so(tmp_path):
     ph = Photographer(tmp_path, 96)
-    lamps = lspdd_lamps()[:2]
+    lamps = [Lamp("A", "incandescent", "CIE", known_lamp_spd("incandescent")),
+             Lamp("5000 K", "blackbody", "test", planck_spd(5000.0))]  # not the measured lamps: CI has none
     model = load_model()
     photos = run(ph, SETTINGS[0], "jpeg", _black, lamps, model, ())
     assert photos["n"] == 0 and photos["refused"] == 2 and photos["refusals"]
