@@ -21,15 +21,13 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 
 from cd_spectra_addon.core.inverse.stages import model_prior, tail_settings
-from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectrum import solve
 from cd_spectra_addon.core.spectrum.model import load_model
 from cd_spectra_addon.core.spectrum.tails import with_tails
 
-from training.learning.tune_tails import TailCase, tail_cases
+from training.learning.tune_tails import TailCase, mean_score, score_row, tail_cases
 from training.simulation.basis import REPO
 
 SEED = 4747
@@ -46,15 +44,7 @@ def scores(cases: list[TailCase], allowance: float, window: int, model: Any) -> 
         if not x.max() > 0:
             continue
         est = with_tails(x / x.max(), c.rows, settings)[0] if settings is not None else x
-        m = compare_spds(est, c.truth)
-        out.append({"family": c.family, "mae_400_700": float(m["mae_400_700"]),
-                    "mae_380_780": float(m["mae_380_780"]), "delta_uv_prime": float(m["delta_uv_prime"])})
-    return out
-
-
-def _mean(rows: list[dict[str, Any]]) -> dict[str, float]:
-    out = {k: float(np.mean([r[k] for r in rows])) for k in ("mae_400_700", "mae_380_780", "delta_uv_prime")}
-    out["score"] = out["mae_400_700"] + out["mae_380_780"] + 10 * out["delta_uv_prime"]
+        out.append(score_row(c.family, est, c.truth))
     return out
 
 
@@ -64,7 +54,7 @@ def tune(cases: list[TailCase], model: Any) -> dict[str, Any]:
         for window in (WINDOWS if allowance > 0 else WINDOWS[:1]):
             rs = scores(cases, allowance, window, model)
             per[(allowance, window)] = rs
-            grid.append({"allowance": allowance, "window": window, **_mean(rs)})
+            grid.append({"allowance": allowance, "window": window, **mean_score(rs)})
     best = min(grid, key=lambda r: r["score"])
     shipped = next((r for r in grid if r["allowance"] == solve.LINE_ALLOWANCE and r["window"] == solve.LINE_WINDOW),
                    None)
@@ -74,7 +64,7 @@ def tune(cases: list[TailCase], model: Any) -> dict[str, Any]:
         for r in per[cell]:
             fam[r["family"]].append(r)
         for f, rs in fam.items():
-            per_family[f][key] = {**_mean(rs), "n": len(rs)}
+            per_family[f][key] = {**mean_score(rs), "n": len(rs)}
     return {"n": len(cases), "grid": grid, "best": best, "shipped": shipped, "per_family": dict(per_family)}
 
 

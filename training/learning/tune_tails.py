@@ -87,29 +87,31 @@ def tail_cases(n: int, seed: int = SEED, size: int = 192, families: tuple[str, .
     return out
 
 
-def scores(cases: list[TailCase], settings: TailSettings | None) -> list[dict[str, float]]:
-    rows = []
-    for c in cases:
-        est = with_tails(c.estimate, c.rows, settings, c.fit)[0]
-        m = compare_spds(est, c.truth)
-        rows.append({"family": c.family, "mae_400_700": float(m["mae_400_700"]),
-                     "mae_380_780": float(m["mae_380_780"]), "delta_uv_prime": float(m["delta_uv_prime"])})
-    return rows
+def score_row(family: str, estimate: NDArray[np.float64], truth: NDArray[np.float64]) -> dict[str, Any]:
+    """One photo's figures as the tuning scores them."""
+    m = compare_spds(estimate, truth)
+    return {"family": family, "mae_400_700": float(m["mae_400_700"]), "mae_380_780": float(m["mae_380_780"]),
+            "delta_uv_prime": float(m["delta_uv_prime"])}
 
 
-def _mean(rows: list[dict[str, Any]]) -> dict[str, float]:
+def scores(cases: list[TailCase], settings: TailSettings | None) -> list[dict[str, Any]]:
+    return [score_row(c.family, with_tails(c.estimate, c.rows, settings, c.fit)[0], c.truth) for c in cases]
+
+
+def mean_score(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """Mean figures and the score (MAE 400–700 + MAE 380–780 + 10·Δu'v', as the fusion tuning)."""
     out = {k: float(np.mean([r[k] for r in rows])) for k in ("mae_400_700", "mae_380_780", "delta_uv_prime")}
     out["score"] = out["mae_400_700"] + out["mae_380_780"] + 10 * out["delta_uv_prime"]
     return out
 
 
 def tune(cases: list[TailCase]) -> dict[str, Any]:
-    grid = [{"thermal_chi2": None, "other_chi2": None, "max_temperature_k": None, **_mean(scores(cases, None))}]
+    grid = [{"thermal_chi2": None, "other_chi2": None, "max_temperature_k": None, **mean_score(scores(cases, None))}]
     for t_max in MAX_TEMPERATURES_K:
         for lo in THERMAL:
             for span in SPANS:
                 grid.append({"thermal_chi2": lo, "other_chi2": lo * span, "max_temperature_k": t_max,
-                             **_mean(scores(cases, TailSettings(lo, lo * span, t_max)))})
+                             **mean_score(scores(cases, TailSettings(lo, lo * span, t_max)))})
     best = min(grid[1:], key=lambda r: r["score"])
     chosen = TailSettings(best["thermal_chi2"], best["other_chi2"], best["max_temperature_k"])
     per_family: dict[str, dict[str, dict[str, float]]] = defaultdict(dict)
@@ -118,7 +120,7 @@ def tune(cases: list[TailCase]) -> dict[str, Any]:
         for r in scores(cases, settings):
             fam[r["family"]].append(r)
         for f, rs in fam.items():
-            per_family[f][key] = {**_mean(rs), "n": len(rs)}
+            per_family[f][key] = {**mean_score(rs), "n": len(rs)}
     chi = defaultdict(list)
     for c in cases:
         chi[c.family].append(c.fit.chi2_per_row if c.fit else np.nan)
