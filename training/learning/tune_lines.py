@@ -21,7 +21,6 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-
 from cd_spectra_addon.core.inverse.stages import model_prior, tail_settings
 from cd_spectra_addon.core.spectrum import solve
 from cd_spectra_addon.core.spectrum.model import load_model
