@@ -32,8 +32,8 @@ LINE_ALLOWANCE = 0.3
 LINE_WINDOW = 7
 
 __all__ = ["SMOOTHNESS", "GaussianPrior", "Rows", "rows_for", "fused_solve", "photo_scale", "band_blend",
-           "second_difference", "line_excess", "system", "physics_solve", "prior_solve", "solve_physics", "solve_prior",
-           "solve_fused", "blend_bands", "rows_scale", "scale_to"]
+           "second_difference", "line_excess", "system", "physics_solve", "prior_solve", "solve_physics",
+           "solve_prior", "solve_fused", "blend_bands", "rows_scale", "scale_to"]
 
 
 @dataclass(frozen=True)
@@ -135,12 +135,11 @@ def line_excess(spd: NDArray[np.float64], window: int = LINE_WINDOW) -> NDArray[
     return np.clip(spd - median, 0.0, None)
 
 
-def _prior_map(rows: Rows, prior: GaussianPrior, strength: float, prec: NDArray[np.float64], s: float
-               ) -> NDArray[np.float64]:
-    """The non-negative MAP solve with the prior at scale ``s`` (the photo's units per peak)."""
-    n, a, y = rows.n, rows.a, rows.y
-    gram = a.T @ a
-    rhs = a.T @ y
+def _prior_map(data: tuple[NDArray[np.float64], NDArray[np.float64]], n: int, prior: GaussianPrior, strength: float,
+               prec: NDArray[np.float64], s: float) -> NDArray[np.float64]:
+    """The non-negative MAP solve with the prior at scale ``s`` (the photo's units per peak),
+    from the rows' normal equations ``data`` = (AᵀA, Aᵀy), which it leaves as they are."""
+    gram, rhs = data[0].copy(), data[1].copy()
     gram[:n, :n] += strength * prec / (s * s)
     rhs[:n] += strength * (prec @ prior.mean) / s
     gram += 1e-12 * np.trace(gram[:n, :n]) / n * np.eye(gram.shape[0])
@@ -169,7 +168,8 @@ def solve_prior(rows: Rows, prior: GaussianPrior, strength: float = PRIOR_STRENG
     if s <= 0:
         return first
     prec = prior.precision() if precision is None else precision
-    x = _prior_map(rows, prior, strength, prec, s)
+    data = (rows.a.T @ rows.a, rows.a.T @ rows.y)
+    x = _prior_map(data, n, prior, strength, prec, s)
     if lines <= 0:
         return x
     s2 = float(x[:n][band].max())
@@ -177,7 +177,7 @@ def solve_prior(rows: Rows, prior: GaussianPrior, strength: float = PRIOR_STRENG
     if not np.any(excess > 0):
         return x
     cov = prior.covariance + np.diag(lines * excess * excess) + PRIOR_JITTER * np.eye(n)
-    return _prior_map(rows, prior, strength, np.linalg.inv(cov), s2)
+    return _prior_map(data, n, prior, strength, np.linalg.inv(cov), s2)
 
 
 def physics_solve(readout: Readout, matrix: NDArray[np.float64], smoothness: float = SMOOTHNESS,
