@@ -30,12 +30,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cd_spectra_addon.core.numerics.least_squares import levenberg_marquardt
+from cd_spectra_addon.core.photo.resample import box_downsample
 from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
+from cd_spectra_addon.core.spectra import colour
 from cd_spectra_addon.core.spectra.cameras import CameraProfile
 
 from training.evaluation.renderings import camera_to_srgb, white_gains
 
-__all__ = ["LearnedRendering", "fit_rendering", "load_pair", "learn_from_file", "XYZ_TO_SRGB"]
+__all__ = ["LearnedRendering", "fit_rendering", "load_pair", "learn_from_file"]
 
 KNOTS = 17  # the tone curves' knots on encoded input 0…1
 ROUNDS = 6  # alternations of matrix and curves
@@ -43,9 +45,6 @@ BLOCK = 8  # pixels averaged per side before fitting: misregistration and demosa
 SMOOTH = 1e-2  # the curves' second-difference penalty, relative to the data's weight per knot
 ANCHOR_WEIGHT = 5.0  # (0, 0) and (1, 1) count as this many blocks
 RIDGE = 1e-3  # pull of the matrix towards the colorimetric one, relative to the data's weight
-XYZ_TO_SRGB = np.array([[3.2404542, -1.5371385, -0.4985314],
-                        [-0.9692660, 1.8760108, 0.0415560],
-                        [0.0556434, -0.2040259, 1.0572252]])
 
 
 @dataclass(frozen=True)
@@ -61,19 +60,25 @@ class LearnedRendering:
 
     def tone(self, display: NDArray[np.float64]) -> NDArray[np.float64]:
         """Linear values (…, 3) → the camera's file-linear output."""
-        x = srgb_encode(np.clip(display, 0.0, 1.0))
-        knots = np.linspace(0.0, 1.0, KNOTS)
-        out = np.stack([np.interp(x[..., c], knots, self.curves[c]) for c in range(3)], axis=-1)
-        return srgb_decode(np.clip(out, 0.0, 1.0))
+        return srgb_decode(np.clip(_curved(display, self.curves), 0.0, 1.0))
 
     def __call__(self, native: NDArray[np.float64], camera: CameraProfile) -> NDArray[np.float64]:
         colorimetric = (native * white_gains(camera)) @ camera_to_srgb(camera).T
         return self.tone(colorimetric @ self.look.T)
 
 
+def _curved(display: NDArray[np.float64], curves: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Linear values (…, 3), clipped to 0…1 and sRGB-encoded, through each channel's curve: codes 0…1."""
+    x = srgb_encode(np.clip(display, 0.0, 1.0))
+    knots = np.linspace(0.0, 1.0, KNOTS)
+    return np.stack([np.interp(x[..., c], knots, curves[c]) for c in range(3)], axis=-1)
+
+
 def _blocks(image: NDArray[np.float64], block: int) -> NDArray[np.float64]:
-    h, w = (image.shape[0] // block) * block, (image.shape[1] // block) * block
-    return image[:h, :w].reshape(h // block, block, w // block, block, -1).mean(axis=(1, 3))
+    """``block`` × ``block`` means, flattened to one row per block (…, channels)."""
+    image = np.asarray(image, np.float64)
+    return box_downsample(image if image.ndim == 3 else image[..., None], block).reshape(-1, 1 if image.ndim == 2
+                                                                                           else image.shape[-1])
 
 
 def _fit_curves(x: NDArray[np.float64], codes: NDArray[np.float64], ok: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -119,10 +124,9 @@ def fit_rendering(raw_linear: NDArray[np.float64], jpeg_codes: NDArray[np.float6
 
     The white balance is the one under which the fitted rendering is neutral: ``M = L · S ·
     diag(g)`` is fitted as a whole, then split with ``g`` ∝ 1 / (M⁻¹ · 1)."""
-    cam = _blocks(np.asarray(raw_linear, np.float64), block).reshape(-1, 3)
-    codes = _blocks(np.asarray(jpeg_codes, np.float64), block).reshape(-1, 3)
-    clipped = np.zeros(cam.shape[0], bool) if raw_clipped is None else \
-        _blocks(np.asarray(raw_clipped, np.float64)[..., None], block).reshape(-1) > 0
+    cam = _blocks(raw_linear, block)
+    codes = _blocks(jpeg_codes, block)
+    clipped = np.zeros(cam.shape[0], bool) if raw_clipped is None else _blocks(raw_clipped, block)[:, 0] > 0
     ok = (codes > 2.5 / 255) & (codes < 252.5 / 255) & ~clipped[:, None] & np.all(cam > 0, axis=1)[:, None]
     rows = np.all(ok, axis=1)
     if rows.sum() < 100:
@@ -152,9 +156,7 @@ def fit_rendering(raw_linear: NDArray[np.float64], jpeg_codes: NDArray[np.float6
 
 def _render_blocks(cam: NDArray[np.float64], m: NDArray[np.float64], curves: NDArray[np.float64]
                    ) -> NDArray[np.float64]:
-    x = srgb_encode(np.clip(cam @ m.T, 0.0, 1.0))
-    knots = np.linspace(0.0, 1.0, KNOTS)
-    return np.stack([np.interp(x[:, c], knots, curves[c]) for c in range(3)], axis=1)
+    return _curved(cam @ m.T, curves)
 
 
 def _polish(cam: NDArray[np.float64], codes: NDArray[np.float64], ok: NDArray[np.bool_], m: NDArray[np.float64],
@@ -213,7 +215,7 @@ def load_pair(raw_path: Path, jpeg_path: Path | None = None
     native = native[top:top + height, left:left + width]
     native = _resize(native, codes.shape[:2])
     clipped = np.max(native, axis=-1) >= 0.98
-    srgb_from_cam = XYZ_TO_SRGB @ np.linalg.inv(cam_from_xyz)
+    srgb_from_cam = colour.xyz_to_working_rgb(np.linalg.inv(cam_from_xyz).T, colour.LINEAR_REC709).T
     colorimetric = srgb_from_cam / (srgb_from_cam @ np.ones(3))[:, None]
     return native, codes, colorimetric, clipped, name
 
