@@ -50,6 +50,7 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.calibration_shot import Shot, calibrate_shots
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import LinearImage
+from cd_spectra_addon.core.photo.raw_files import is_raw_path
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.spectrum.model import load_model
@@ -240,13 +241,10 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
     return "\n".join(lines)
 
 
-RAW_SUFFIXES = {".crw", ".cr2", ".cr3", ".nef", ".nrw", ".arw", ".dng", ".raf", ".orf", ".rw2", ".pef", ".srw"}
-
-
 def learned_renderings(folder: Path) -> list[LearnedRendering]:
     """Each raw file's camera rendering (its JPEG beside it with the same stem, else the one it embeds)."""
     out = []
-    for raw in sorted(p for p in Path(folder).iterdir() if p.suffix.lower() in RAW_SUFFIXES):
+    for raw in sorted(p for p in Path(folder).iterdir() if is_raw_path(p)):
         jpeg = next((p for p in raw.parent.glob(raw.stem + ".*") if p.suffix.lower() in (".jpg", ".jpeg")), None)
         try:
             rendering = learn_from_file(raw, jpeg)
