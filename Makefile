@@ -114,14 +114,17 @@ eval: setup eval-camera-files eval-poses
 # Which file to shoot: EXR, TIFF, DNG, in-camera JPEG/HEIC with and without calibration, matched
 # vs generic profile, held-out cameras (simulated, 30 real lamps; the rows calibrated from one
 # in-camera CIE A shot over 3 draws of its noise; ~15 min on one core, then camera_renderings ~6 min).
+# RAW_PAIRS=folder: real cameras' raw files with their JPEGs, whose renderings are learned (not in the repo).
+CAMERA_RENDERINGS = OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write \
+	$(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
 eval-camera-files: setup
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --calibration-draws 3 --out bench/camera_files.md
-	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
+	$(CAMERA_RENDERINGS)
 
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of
 # bench/camera_files.md; ~20 min on one core).
 eval-camera-renderings: setup
-	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
+	$(CAMERA_RENDERINGS)
 
 # Capture pose errors (lamp beside the lens, camera off centre, tilt, ambient, lamp size): numpy twin, minutes.
 # Per set-up pose errors at a real photo's resolution (simulator). 12 lamps ≈ 1 h on the shared
