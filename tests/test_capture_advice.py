@@ -32,7 +32,7 @@ def test_without_a_fit_the_advice_names_the_presets_angles_and_azimuth():
     assert "the lamp 165° counter-clockwise from the camera, seen from above the disc" in text
     assert "one vertical plane through the disc's centre" not in text
     tripod = oblique_advice(load_preset("tripod-oblique"), None)
-    assert "camera 27.5° and lamp 7.5° from the disc's axis, the lamp on the camera's side" in tripod
+    assert "camera 12.5° and lamp 15° from the disc's axis, the lamp opposite the camera, in its vertical plane" in tripod
 
 
 def test_a_capture_off_the_presets_angles_is_told_each_move_and_what_lands():
@@ -51,8 +51,9 @@ def test_a_capture_off_the_presets_angles_is_told_each_move_and_what_lands():
 
 def test_a_tilted_disc_is_offered_as_the_other_explanation():
     preset = load_preset("tripod-oblique")
-    text = oblique_advice(preset, Scene(preset, Pose(tilt_deg=(0.0, 3.0))))
-    assert "lay the disc flat (it is tilted 3°)" in text
+    # the set-up keeps 400–700 nm to 3° of tilt (planner.TILT_GOAL_DEG); at 5° it does not
+    text = oblique_advice(preset, Scene(preset, Pose(tilt_deg=(0.0, -5.0))))
+    assert "lay the disc flat (it is tilted 5°)" in text
     assert re.search(r"only \d+–700 nm of 400–700 nm lands", text)  # the blue end slides off the tracks
 
 

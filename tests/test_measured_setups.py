@@ -84,16 +84,16 @@ def test_the_preset_states_the_numbers_and_the_convention_and_the_disc():
 
 
 def test_a_measured_tripod_oblique_lands_where_the_shipped_one_does():
-    """The shipped oblique set-up, described by its measurements (lamp on the camera's side, both
-    at azimuth 180°), puts 400 / 550 / 700 nm where README's table says: 56.3 / 41.5 / 26.2 mm."""
+    """The shipped oblique set-up, described by its measurements (the camera at azimuth 180°, the
+    lamp opposite at 0°), puts 400 / 550 / 700 nm where README's table says: 28.0 / 41.3 / 55.1 mm."""
     cam = load_preset("tripod-oblique").camera.nominal_position_mm
     d, angle, _ = _angles(np.asarray(cam))
-    setup = measured_setup(Measurements(300.0, 7.5, 180.0, d, angle, 180.0, lamp_size_mm=3.0))
+    setup = measured_setup(Measurements(200.0, 15.0, 0.0, d, angle, 180.0, lamp_size_mm=3.0))
     report = analyse(setup, report_nm=(400.0, 550.0, 700.0))
     assert report.coplanar and report.covers_visible
     camera_side = [[abs(s) for s in report.positions_mm[lam] if s * report.read_side > 0][0]
                    for lam in (400.0, 550.0, 700.0)]
-    assert camera_side == pytest.approx([56.3, 41.5, 26.2], abs=0.06)
+    assert camera_side == pytest.approx([28.0, 41.3, 55.1], abs=0.06)
 
 
 @pytest.mark.parametrize("change,words", [

@@ -109,6 +109,7 @@ def test_cli_prints_the_steps_and_writes_a_preset_that_loads(tmp_path, capsys):
                      "--write-preset", str(out)]) == 0
     text = capsys.readouterr().out
     assert "Camera on a tripod" in text and "400–700 covered" in text and "nm FWHM" in text
+    assert "level to within 1.5°" in text and "may tip up to 1.5° any way" in text
     setup = load_setup(out)
     assert setup.preset.name == "mine" and analyse(setup).covers_visible
 
@@ -187,3 +188,27 @@ def _kernel_lambda1(scene, points):
     view = (cam - points) / np.linalg.norm(cam - points, axis=-1, keepdims=True)
     geo = diffraction_at(points, view, np.zeros(3), scene.disc_normal, np.asarray(scene.light_position) * 1e3)
     return float(geo.lambda1_nm(scene.preset.disc.pitch_um)[0])
+
+
+def test_plans_prefer_a_disc_that_may_tip_and_say_how_level_it_must_be():
+    """A tilt in the plane of lamp and camera moves every wavelength along the disc (~50 nm per
+    degree): the planner ranks how far the disc may tip before 400–700 nm leaves the tracks ahead
+    of the blur, and where that is under 3° the first step says how level to lay it. A tripod
+    camera with the lamp 300 mm away cannot be made to tolerate more than 1°; at 200 mm it can."""
+    from cd_spectra_addon.core.planning.planner import TILT_GOAL_DEG
+    from cd_spectra_addon.core.planning.setups import TILT_COVERAGE, visible_share
+    from cd_spectra_addon.core.scene.capture import Pose, Scene
+
+    near = plan_capture(Equipment(lamp_distance_mm=200.0, lamp_size_mm=3.0, focal_mm=24.0))
+    far = plan_capture(Equipment(lamp_distance_mm=300.0, lamp_size_mm=3.0, focal_mm=24.0))
+    assert near.tilt_tolerance_deg >= TILT_GOAL_DEG > far.tilt_tolerance_deg
+    for plan in (near, far):
+        tilt = plan.tilt_tolerance_deg
+        for about in ((tilt, 0.0), (0.0, tilt), (-tilt, 0.0), (0.0, -tilt)):
+            assert visible_share(Scene(plan.setup.preset, Pose(tilt_deg=about))) >= TILT_COVERAGE
+        worse = tilt + 1.0
+        assert min(visible_share(Scene(plan.setup.preset, Pose(tilt_deg=about)))
+                   for about in ((worse, 0.0), (0.0, worse), (-worse, 0.0), (0.0, -worse))) < TILT_COVERAGE
+    assert f"level to within {far.tilt_tolerance_deg:g}°" in far.instructions()[0]
+    assert "level" not in near.instructions()[0]
+    assert plan_capture(DISTANT).to_dict()["tilt_tolerance_deg"] == pytest.approx(1.5)

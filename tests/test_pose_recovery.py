@@ -2,6 +2,8 @@
 
 from dataclasses import replace
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -37,17 +39,26 @@ def _lamp() -> np.ndarray:
     return np.exp(-0.5 * ((lam - 560) / 90.0) ** 2) + 0.6 * np.exp(-0.5 * ((lam - 611) / 6.0) ** 2)
 
 
-def _oblique(pose: Pose = Pose(), zoom: float = 3.2):
-    """tripod-oblique as a centred crop at realistic resolution: the 24 mm lens's field zoomed
-    so the disc spans ~800 of 1024 pixels (the loader's crop of a real photo)."""
-    preset = load_preset("tripod-oblique").with_image_size(SIZE)
+# Version 2's tripod set-up (camera 27.5° from the axis, lamp 7.5° on its side): a strongly
+# foreshortened disc and a streak on one side, what the general-pose fit was built on. The shipped
+# tripod-oblique now looks down at 12.5° with the lamp opposite (tolerant of a tilted disc); on the
+# ERRORS photo below its fit reads λ₁ 2 nm off (0.5 nm here) and physics-only MAE 0.081 against 0.024
+# at its true pose (bench/pose_errors.md measures the shipped set-ups).
+V2_TRIPOD = Path(__file__).resolve().parent / "tripod_oblique_v2.json"
+
+
+def _oblique(pose: Pose = Pose(), zoom: float = 3.2, name: str | Path = V2_TRIPOD):
+    """An oblique set-up (default: version 2's tripod) as a centred crop at realistic resolution:
+    the 24 mm lens's field zoomed so the disc spans ~800 of 1024 pixels (the loader's crop of a
+    real photo)."""
+    preset = load_preset(name).with_image_size(SIZE)
     preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * zoom))
     return Scene(preset, pose)
 
 
 @pytest.fixture(scope="module")
 def oblique_photo(tmp_path_factory):
-    """An 8-bit JPEG (1 % noise, EXIF focal length) of tripod-oblique with every pose error."""
+    """An 8-bit JPEG (1 % noise, EXIF focal length) of version 2's tripod set-up with every pose error."""
     scene = _oblique(ERRORS)
     cube = render_cube(scene, supersample=2)
     image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
@@ -56,7 +67,7 @@ def oblique_photo(tmp_path_factory):
     path = tmp_path_factory.mktemp("oblique") / "oblique.jpg"
     photo.write_photo(path, image, "jpg", photo.exif_for(c.focal_length_mm, c.sensor_width_mm, 2 * SIZE, CAMERA.name))
     loaded = load_photo(path, max_side=SIZE)
-    fit = fit_pose(np.asarray(loaded.rgb, np.float64), load_preset("tripod-oblique"),
+    fit = fit_pose(np.asarray(loaded.rgb, np.float64), load_preset(V2_TRIPOD),
                                         c.focal_px, sensitivities=CAMERA.sensitivities,
                                         saturated=np.asarray(loaded.saturated))
     return scene, loaded, fit
@@ -128,7 +139,7 @@ def test_the_fitted_streak_shows_the_grating_equation_wavelengths(oblique_photo)
     # streak (v = 0) by the forward model instead of setups.first_order_positions.
     px = pixel_diffraction(scene)
     streak = px.on_tracks & (px.visibility > 0.3)
-    nominal = relative_pose.nominal_scene(load_preset("tripod-oblique"), (SIZE, SIZE), scene.preset.camera.focal_px)
+    nominal = relative_pose.nominal_scene(load_preset(V2_TRIPOD), (SIZE, SIZE), scene.preset.camera.focal_px)
     for target in (450.0, 530.0, 610.0):
         k = np.flatnonzero(streak)[np.argmin(np.abs(px.lambda1_nm[streak] - target))]
         assert abs(px.lambda1_nm[k] - target) < 2.0
@@ -160,7 +171,7 @@ def test_an_oblique_photo_is_read_not_refused(oblique_photo):
     from cd_spectra_addon.core.pose.result import PoseFit
 
     scene, loaded, _ = oblique_photo
-    kwargs = dict(preset="tripod-oblique", camera=DEFAULT_CAMERA, model=None, method="physics")
+    kwargs = dict(preset=load_preset(V2_TRIPOD), camera=DEFAULT_CAMERA, model=None, method="physics")
     est = estimate_image(loaded, **kwargs)
     true = estimate_image(loaded, fit=PoseFit.of_scene(scene), **{**kwargs, "preset": scene.preset})
     mae, true_mae = (compare_spds(e.spd, _lamp())["mae_400_700"] for e in (est, true))
@@ -177,7 +188,7 @@ def test_a_photo_without_first_order_light_is_refused_with_what_to_move(tmp_path
     with pytest.raises(NoDiscError) as info:
         estimate_image(load_photo(path), preset="tripod-oblique", camera=DEFAULT_CAMERA, model=None, method="physics")
     text = str(info.value)
-    assert "no CD rainbow" in text and "camera 27.5° and lamp 7.5°" in text and "tripod-oblique" in text
+    assert "no CD rainbow" in text and "camera 12.5° and lamp 15°" in text and "tripod-oblique" in text
 
 
 @settings(max_examples=30, deadline=None)
@@ -310,7 +321,7 @@ def test_the_disc_outline_gives_the_camera_pose():
 
 @pytest.mark.slow
 def test_a_visible_outline_rescues_a_wrong_preset():
-    """The photo is tripod-oblique's (camera 27.5° from the disc's axis) but the preset handed to
+    """The photo is version 2's tripod set-up's (camera 27.5° from the disc's axis) but the preset handed to
     the fit says 40°. With the room-lit disc's outline, the cheap starts find the wavelengths
     (within 2 nm); the same starts without the outline strategy (and the lines one, which also
     rescues it) read them wrong (λ₁ > 10 nm off).
@@ -319,7 +330,7 @@ def test_a_visible_outline_rescues_a_wrong_preset():
     from cd_spectra_addon.core.pose.starts import CHEAP
 
     scene = _oblique(Pose(tilt_deg=(3.0, 2.0), camera_rotation_deg=(2.0, 1.0)))
-    preset = load_preset("tripod-oblique")
+    preset = load_preset(V2_TRIPOD)
     said = replace(preset, camera=replace(preset.camera, position_mm=(-207.0, 0.0, 246.7)))  # 40°, 322 mm
     cube = render_cube(scene, supersample=2)
     image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
@@ -386,7 +397,7 @@ def test_an_in_plane_turn_is_found_on_an_oblique_streak(pose):
     """A lamp swung or a disc tilted 3° in the plane of incidence slides the wavelength axis along
     an oblique streak by ~100 nm without moving the streak; from the preset's pose the fit finds
     the true wavelengths (within 1.5 nm on the first-order pixels), not a neighbouring valley."""
-    scene = _oblique(pose)
+    scene = _oblique(pose, name="tripod-oblique")
     noisy = _noisy_photo(scene)
     fit = fit_pose(noisy, load_preset("tripod-oblique"), scene.preset.camera.focal_px,
                                         sensitivities=CAMERA.sensitivities)

@@ -22,7 +22,7 @@ sys.path.insert(0, str(REPO))
 
 from cd_spectra_addon.core.scene.capture import DISTANT_LAMP_PRESET, NEAR_AXIS_PRESET, OBLIQUE_PRESET, PRESET_DIR  # noqa: E402
 from cd_spectra_addon.core.planning.planner import Equipment, Plan, plan_capture, setup_summary  # noqa: E402
-from cd_spectra_addon.core.planning.setups import NEAR_AXIS, OBLIQUE, analyse, setup_from_dict  # noqa: E402
+from cd_spectra_addon.core.planning.setups import NEAR_AXIS, OBLIQUE, TILT_COVERAGE, analyse, setup_from_dict  # noqa: E402
 
 # name → (equipment, families, what it is)
 DESIGNS: dict[str, tuple[Equipment, tuple[str, ...], str]] = {
@@ -33,10 +33,12 @@ DESIGNS: dict[str, tuple[Equipment, tuple[str, ...], str]] = {
         "right behind the card.",
     ),
     OBLIQUE_PRESET: (
-        Equipment(lamp_distance_mm=300.0, lamp_size_mm=3.0, focal_mm=24.0, sensor_width_mm=36.0, phone=False),
+        # 200 mm, not version 2's 300 mm: at 300 mm no position tolerates more than 1° of disc tilt
+        # (planner.TILT_GOAL_DEG); at 200 mm one tolerates 3° for 13 -> 15.5 nm of blur.
+        Equipment(lamp_distance_mm=200.0, lamp_size_mm=3.0, focal_mm=24.0, sensor_width_mm=36.0, phone=False),
         (OBLIQUE,),
         "Full-frame camera with a 24 mm lens at f/8 on a tripod, tilted towards the disc; a small lamp (an LED, "
-        "or any lamp behind a card with a 3 mm hole) 300 mm from the disc at an angle.",
+        "or any lamp behind a card with a 3 mm hole) 200 mm from the disc at an angle.",
     ),
     DISTANT_LAMP_PRESET: (
         Equipment(lamp_distance_mm=2000.0, lamp_size_mm=10.0, focal_mm=26.0, sensor_width_mm=36.0, phone=True),
@@ -85,8 +87,9 @@ def design(name: str) -> dict[str, Any]:
     lo, hi = report.covered_nm or (0, 0)
     worst = max(report.resolution_nm.values())
     preset["description"] = (f"{what} First order covers {lo:.0f}-{hi:.0f} nm on the data area "
-                             f"({plan.read_side}); spectral blur <= {worst:.0f} nm FWHM. Designed by "
-                             "tools/design_setups.py with the capture planner.")
+                             f"({plan.read_side}), and keeps {100 * TILT_COVERAGE:.0f} % of it with the disc "
+                             f"tilted up to {plan.tilt_tolerance_deg:g} deg; spectral blur <= {worst:.0f} nm FWHM. "
+                             "Designed by tools/design_setups.py with the capture planner.")
     preset["light"] = {k: (round(v, 6) if isinstance(v, float) else [round(x, 3) for x in v])
                        for k, v in preset["light"].items()}
     if "position_mm" in preset["camera"]:

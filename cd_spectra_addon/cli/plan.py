@@ -62,6 +62,7 @@ def _text(plan: object) -> str:
                       if s and 23.0 <= abs(s[0]) <= 58.5)
     if where:
         lines.append(f"  along the streak: {where}")
+    lines.append(f"  the disc may tip up to {plan.tilt_tolerance_deg:g}° any way before 400–700 nm leaves its tracks")
     return "\n".join(lines)
 
 

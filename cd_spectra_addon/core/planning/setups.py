@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..scene.capture import PRESET_DIR, Preset, Scene, load_preset, preset_path
+from ..scene.capture import PRESET_DIR, Pose, Preset, Scene, load_preset, preset_path
 from ..spectra.grid import VISIBLE_NM
 from ..errors import CDSpectraError
 from ..scene.kernel import diffraction_at
@@ -56,6 +56,8 @@ __all__ = [
     "first_order_curve",
     "first_order_positions",
     "first_order_visible",
+    "visible_share",
+    "tilt_tolerance_deg",
     "analyse",
     "setup_from_dict",
     "load_setup",
@@ -74,6 +76,14 @@ _EPS_MM = 1e-6
 # and refined until |v| < 1e-15 or the bracket is below 1e-14 rad (|∂v/∂ψ| ≤ 2).
 _TRACK_STEP_MM = 1.0
 _TRACK_CELLS = 360
+# How far the disc may lie tilted (any direction) before the first order no longer shows this
+# share of 400–700 nm. A tilt δ turns the disc's normal, so d·(sin θi + sin θo) at every point
+# moves by ≈ d·(cos θi + cos θo)·δ: 35–56 nm per degree of tilt in the plane of lamp and camera for
+# lamp and camera within 45° of the axis, whichever sides they stand on. Searched in
+# TILT_STEP_DEG steps up to TILT_LIMIT_DEG.
+TILT_COVERAGE = 0.95
+TILT_STEP_DEG = 0.5
+TILT_LIMIT_DEG = 5.0
 _BRACKETS_DEG = (0.5, 2.0, 8.0, 30.0, 90.0)
 _ROOT_TOL_RAD = 1e-14
 
@@ -469,6 +479,27 @@ def first_order_visible(scene: Scene, samples_per_mm: float = 10.0) -> list[tupl
             out.append((float(grid[start]), float(grid[i - 1])))
             start = None
     return out
+
+
+def visible_share(scene: Scene) -> float:
+    """Share of 400–700 nm (1 nm steps) that :func:`first_order_visible` finds on the data area."""
+    lo, hi = VISIBLE_NM
+    return float(sum(b - a + 1.0 for a, b in first_order_visible(scene)) / (hi - lo + 1.0))
+
+
+def tilt_tolerance_deg(preset: Preset, limit_deg: float = TILT_LIMIT_DEG) -> float:
+    """The largest disc tilt (TILT_STEP_DEG steps, up to TILT_LIMIT_DEG) for which the first order
+    still shows TILT_COVERAGE of 400–700 nm whichever way the disc tips (about x and about y, both
+    signs): how level a user must lay it; searched up to ``limit_deg``. A disc on a table is rarely within 1° without a level;
+    the near-axis capture, whose first order only slides along the line, keeps its 400–700 nm."""
+    ok = 0.0
+    for k in range(1, int(round(limit_deg / TILT_STEP_DEG)) + 1):
+        tilt = k * TILT_STEP_DEG
+        for about in ((tilt, 0.0), (-tilt, 0.0), (0.0, tilt), (0.0, -tilt)):
+            if visible_share(Scene(preset, Pose(tilt_deg=about))) < TILT_COVERAGE:
+                return ok
+        ok = tilt
+    return ok
 
 
 def _crossings(s: NDArray[np.float64], lam: NDArray[np.float64], wavelengths_nm: Any) -> list[list[float]]:
