@@ -32,3 +32,15 @@ def test_no_band_no_claim_and_no_lamps_no_lamp_figures():
                                                            for r in META["fusion"]["bands"]["uncalibrated"]]}}
     assert model_card._wins_lines(fusion, _band_choice(META["version"], 0.01, 0.02)) == []
     assert "measured lamps" not in "\n".join(model_card._wins_lines(META["fusion"], None))
+
+
+def test_the_card_says_which_set_ups_changed_after_training():
+    """A preset whose file digest differs from the one the model recorded is named (its training
+    photos came from the earlier geometry); none changed, nothing said."""
+    trained = {"phone-near-axis": "a" * 16, "tripod-oblique": "b" * 16}
+    meta = {"presets": trained}
+    assert model_card._drift_lines(meta, dict(trained)) == []
+    text = "\n".join(model_card._drift_lines(meta, {**trained, "tripod-oblique": "c" * 16}))
+    assert "`tripod-oblique`" in text and "`phone-near-axis`" not in text and "earlier file" in text
+    text = "\n".join(model_card._drift_lines(meta, {**trained, "kim": "d" * 16}))
+    assert "`kim` (new)" in text and "earlier file" not in text

@@ -13,6 +13,7 @@ import math
 from typing import Any
 
 from cd_spectra_addon.core.inverse.result import METHOD_MODEL, METHOD_PHYSICS, METHOD_PRIOR
+from cd_spectra_addon.core.scene.capture import preset_digests
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, MODEL_NAME
 
 from training.learning.spd_prior import FAMILIES
@@ -79,6 +80,21 @@ def _wins_lines(fusion: dict[str, Any] | None, real: dict[str, Any] | None) -> l
     return lines
 
 
+def _drift_lines(meta: dict[str, Any], now: dict[str, str]) -> list[str]:
+    """The shipped set-ups whose preset file changed after the model was trained (digests in the
+    model's metadata against ``now``): its photos of those came from the earlier geometry."""
+    trained = meta.get("presets") or {}
+    changed = ", ".join(f"`{n}`" for n in sorted(n for n in trained if n in now and now[n] != trained[n]))
+    added = ", ".join(f"`{n}`" for n in sorted(n for n in now if n not in trained))
+    parts = [f"{changed} (the preset file — its geometry or only its text — differs from the one the model "
+             "recorded: its synthetic photos of it came from the earlier file)"] if changed else []
+    parts += [f"{added} (new)"] if added else []
+    if not parts:
+        return []
+    return ["- **Set-ups changed since training:** " + "; ".join(parts)
+            + ". `make model` re-renders their cubes and retrains."]
+
+
 def _f(v: Any, digits: int = 4) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
@@ -133,6 +149,7 @@ def render(meta: dict[str, Any], ev: dict[str, Any] | None, band_choice: dict[st
         f" dataset + fit + export + fusion tuning {(t.get('total_seconds') or 0) / 60:.1f} min on this machine with"
         f" the basis cubes already rendered (rendering the {len(t['cubes'])} cubes comes on top: `bench/render.md`,"
         " `bench/buildable_cubes.md`).",
+        *_drift_lines(meta, preset_digests()),
         *_fusion_lines(meta.get("fusion")),
         *_wins_lines(meta.get("fusion"), band_choice),
         *_tails_lines(meta.get("tails")),

@@ -11,7 +11,6 @@ torch (max |Δ| ≤ 1e-5) and refuses to write a model that fails the check.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import tempfile
@@ -29,7 +28,7 @@ from cd_spectra_addon.core.spectra import colour
 from cd_spectra_addon.core.pose import fit as pose_fit
 from cd_spectra_addon.core.readout import readout
 from cd_spectra_addon.core.spectrum import solve
-from cd_spectra_addon.core.scene.capture import preset_names, PRESET_DIR
+from cd_spectra_addon.core.scene.capture import preset_digests
 from cd_spectra_addon.core.spectrum.model import INPUT_LAYOUT, INPUT_SIZE, MODEL_NAME, layout_hash, load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 
@@ -192,11 +191,6 @@ def export_onnx(model: SpectralNet, path: Path, metadata: dict[str, Any], probe:
     return diff
 
 
-def _presets_digest() -> dict[str, str]:
-    return {name: hashlib.sha256((PRESET_DIR / f"{name}.json").read_bytes()).hexdigest()[:16]
-            for name in preset_names()}
-
-
 def write_json(path: Path, payload: dict[str, Any]) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".json")
     with os.fdopen(fd, "w", encoding="utf-8") as handle:
@@ -247,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
         "preprocessing": {"fit_side": pose_fit.COARSE_SIDE, "min_visibility": readout.MIN_VISIBILITY,
                           "outlier_mads": readout.OUTLIER_MADS, "feature_step_nm": readout.FEATURE_STEP_NM,
                           "smoothness": solve.SMOOTHNESS, "model_error_floor": solve.MODEL_ERROR_FLOOR},
-        "presets": _presets_digest(),
+        "presets": preset_digests(),
         "cameras": {"train": train_cams, "held_out": held},
         "generic_camera": generic_sensitivities(train_cams).round(6).tolist(),
         "training": {**info, "cube_set": args.set, "cubes": [c.name for c in CUBE_SETS[args.set]],

@@ -16,6 +16,7 @@ shipped ones, which they may not shadow.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import re
@@ -44,6 +45,7 @@ __all__ = [
     "Pose",
     "Scene",
     "PRESET_DIR",
+    "preset_digests",
     "DEFAULT_PRESET",
     "REFERENCE_PRESET",
     "NEAR_AXIS_PRESET",
@@ -341,6 +343,13 @@ class Scene:
 def preset_names() -> list[str]:
     """The presets that ship with the add-on."""
     return sorted(p.stem for p in PRESET_DIR.glob("*.json"))
+
+
+def preset_digests() -> dict[str, str]:
+    """Each shipped preset file's digest (16 hex digits): what a model records it was trained
+    with, so a later change of a set-up's geometry shows (models/MODEL_CARD.md)."""
+    return {name: hashlib.sha256((PRESET_DIR / f"{name}.json").read_bytes()).hexdigest()[:16]
+            for name in preset_names()}
 
 
 def user_preset_names() -> list[str]:
