@@ -133,3 +133,40 @@ def test_a_photo_of_higher_orders_is_refused_with_what_it_holds():
     text = str(err.value)
     assert "holds none of 400–700 nm" in text or "holds only" in text
     assert "3rd and 4th orders" in text and "no CD rainbow found" not in text
+    assert "camera-processed" not in text  # a linear file: the colours are the camera's own
+
+
+def test_a_processed_file_refused_for_its_coverage_is_told_its_colours_may_be_the_cause():
+    """The same refusal for a camera-processed file read without a calibration of its processing:
+    the fit placed the wavelengths by colours the camera's rendering moved, so before the geometry
+    advice the message says so (a phone's CIE A JPEG through a real camera's rendering was told to
+    move the lamp when it stood where the preset says)."""
+    preset = grazing_preset(30.0)
+    scene = Scene(preset)
+    image = _photo(scene)
+    fit = replace(PoseFit.of_scene(scene), residual=0.5, null_residual=1.0, lines_pinned=True, line_orders=(3, 4))
+    linear = LinearImage(rgb=image.astype(np.float32), saturated=image.max(axis=2) >= 1.0,
+                         invalid=np.zeros(image.shape[:2], bool), scale=1.0, original_size=(WIDTH, HEIGHT),
+                         encoding="srgb-8", exif=ExifInfo(), path="higher.jpg", processed=True,
+                         processed_reason="EXIF WhiteBalance (auto) says the camera white-balanced it")
+    posed = pose_photo(linear, preset, CAMERA, focal_px=FOCAL_PX, fit=fit)
+    with pytest.raises(NoDiscError) as err:
+        read_posed(posed)
+    text = str(err.value)
+    assert "holds none of 400–700 nm" in text or "holds only" in text
+    hint = text.index("camera-processed file")
+    assert "shoot RAW" in text and hint < text.index("if the colours are right:")
+    # with a calibration of its processing that explains its own photo, the colours are trusted;
+    # with one that cannot (20 % of its rainbow unexplained), the message names it
+    from cd_spectra_addon.core.calibration.calibration import Calibration
+    from cd_spectra_addon.core.calibration.camera_pipeline import CameraPipeline
+    from cd_spectra_addon.core.spectra.grid import N_FEATURES
+
+    identity = CameraPipeline(np.eye(3), np.array([0.0, 1.0]), np.array([0.0, 1.0]))
+    good = Calibration("shot", np.ones((N_FEATURES, 3)), preset.name, CAMERA.name, {"unexplained": 0.004}, identity)
+    for cal, named in ((good, False), (replace(good, metadata={"unexplained": 0.2}), True)):
+        posed = pose_photo(linear, preset, CAMERA, focal_px=FOCAL_PX, fit=fit, calibration=cal)
+        with pytest.raises(NoDiscError) as err:
+            read_posed(posed)
+        assert ("calibration 'shot', which cannot explain the processing" in str(err.value)) == named
+        assert "read without a calibration" not in str(err.value)

@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..readout.ambient import dark_offset, readout_pixels, rough_offset
-from ..calibration.calibration import Calibration
+from ..calibration.calibration import Calibration, calibration_warning
 from ..calibration.censoring import uncensor
 from ..photo.clipping import clipped_channels
 from ..spectra.cameras import CameraProfile
@@ -518,6 +518,27 @@ def covered_nm(readout: Readout) -> list[tuple[float, float]]:
     return out
 
 
+def _processed_hint(posed: Posed) -> str:
+    """For a camera-processed file read without a calibration of its processing (or with one that
+    cannot explain its own photo), why the geometry advice of a refusal may be wrong: the fit places
+    the wavelengths by the rainbow's colours, which the camera's white balance, matrix and curve
+    move. Empty otherwise. (A phone's D65 JPEG was told its lamp stood 61 mm off; a phone's photos
+    through a real camera's rendering — the Canon D30's, bench/camera_files.md — were refused with
+    advice to move the lamp closer, the set-up being the preset's.)"""
+    image, cal = posed.image, posed.calibration
+    if not image.processed:
+        return ""
+    if cal is None or cal.pipeline is None:
+        return ("a camera-processed file — JPEG, HEIC, GIF — read without a calibration of its processing: its "
+                "colours can mislead the fit and the advice — calibrate with a photo of a known lamp taken the same "
+                "way, or shoot RAW")
+    if calibration_warning(cal) is not None:
+        return (f"a camera-processed file read with calibration {cal.name!r}, which cannot explain the processing of "
+                "its own photo: the colours can mislead the fit and the advice — shoot RAW, or fix the white balance, "
+                "turn off picture styles and calibrate again")
+    return ""
+
+
 def _coverage_refusal(name: str, fit: PoseFit, stretches: list[tuple[float, float]], advice: str,
                       needed_nm: float = MIN_COVERAGE_NM) -> str:
     """The message for a photo whose rainbow is found but shows too little of 400–700 nm."""
@@ -578,8 +599,10 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     seen = found or on_curve(fit.line_share, fit.line_offset_px)
     if seen and sum(b - a for a, b in stretches) < min_coverage_nm:
         name = Path(image.path).name or "the photo"
-        raise NoDiscError(_coverage_refusal(name, fit, stretches, coverage_advice(posed.preset, scene),
-                                            min_coverage_nm))
+        advice = coverage_advice(posed.preset, scene)
+        if _processed_hint(posed):
+            advice = f"{_processed_hint(posed)}; if the colours are right: {advice}"
+        raise NoDiscError(_coverage_refusal(name, fit, stretches, advice, min_coverage_nm))
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or not found:
         name = Path(image.path).name or "the photo"
         hint = ""
@@ -587,12 +610,8 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
             hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and brightest_level(rgb, excluded) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        elif image.processed and (posed.calibration is None or posed.calibration.pipeline is None):
-            # The advice below reads the set-up from the fit, which the file's processed colours
-            # can mislead: a phone's D65 JPEG (generic profile) was told its lamp stood 61 mm off.
-            hint = (" (a camera-processed file — JPEG, HEIC, GIF — read without a calibration of its processing: "
-                    "its colours can mislead the fit and the advice below — calibrate with a photo of a known lamp "
-                    "taken the same way, or shoot RAW)")
+        elif _processed_hint(posed):
+            hint = f" ({_processed_hint(posed)})"
         advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
