@@ -190,6 +190,7 @@ def _kernel_lambda1(scene, points):
     return float(geo.lambda1_nm(scene.preset.disc.pitch_um)[0])
 
 
+@pytest.mark.slow
 def test_plans_prefer_a_disc_that_may_tip_and_say_how_level_it_must_be():
     """A tilt in the plane of lamp and camera moves every wavelength along the disc (~50 nm per
     degree): the planner ranks how far the disc may tip before 400–700 nm leaves the tracks ahead
