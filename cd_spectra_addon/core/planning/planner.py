@@ -281,24 +281,33 @@ def _quick_metrics(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min:
     return {"covers": one_a | one_b | union, "single": one_a | one_b, "margin": margin, "glint": glint}
 
 
+def _turned_about(v: np.ndarray, axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """Rows of ``v`` turned by ``angle_rad`` about the matching unit rows of ``axis`` (Rodrigues)."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return v * c + np.cross(axis, v) * s + axis * np.sum(axis * v, axis=1, keepdims=True) * (1.0 - c)
+
+
 def _quick_tolerance(camera: np.ndarray, lamp: np.ndarray, pitch_nm: float, r_min: float, r_max: float,
                      along: Any = None) -> np.ndarray:
     """Per candidate, the largest tilt of the disc in the plane of lamp and camera (TILT_STEP_DEG
     steps up to TILT_GOAL_DEG) at which the line still covers 400–700 nm: the disc tilted by δ is
-    camera and lamp turned by −δ about the disc centre. Ranking only; the plan's own figure is
-    :func:`~.setups.tilt_tolerance_deg` (both axes, the curve where the tilt leaves the plane)."""
+    camera and lamp turned by −δ about the disc centre, about the horizontal axis across the
+    streak. Ranking only; the plan's own figure is :func:`~.setups.tilt_tolerance_deg` (both axes,
+    the curve where the tilt leaves the plane, the frame)."""
+    h = lamp / np.linalg.norm(lamp, axis=1, keepdims=True) + camera / np.linalg.norm(camera, axis=1, keepdims=True)
+    line = h[:, :2].copy()  # the streak's direction at the centre: the in-plane part of ωi + ωo ...
+    flat = np.linalg.norm(line, axis=1) < 1e-6  # ... or, with the glint at the centre, the camera's foot
+    line[flat] = camera[flat, :2]
+    axis = np.stack([-line[:, 1], line[:, 0], np.zeros(len(h))], axis=1)
+    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-12)
     out = np.zeros(len(camera))
     alive = np.ones(len(camera), dtype=bool)
-    h = lamp / np.linalg.norm(lamp, axis=1, keepdims=True) + camera / np.linalg.norm(camera, axis=1, keepdims=True)
-    axis = np.stack([-h[:, 1], h[:, 0], np.zeros(len(h))], axis=1)  # in the disc plane, across the line
-    axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-12)
     for k in range(1, int(round(TILT_GOAL_DEG / TILT_STEP_DEG)) + 1):
         ok = alive.copy()
         for sign in (1.0, -1.0):
             t = math.radians(sign * k * TILT_STEP_DEG)
-            turn = lambda v: (v * math.cos(t) + np.cross(axis, v) * math.sin(t)  # noqa: E731 (Rodrigues)
-                              + axis * np.sum(axis * v, axis=1, keepdims=True) * (1.0 - math.cos(t)))
-            ok &= _quick_metrics(turn(camera), turn(lamp), pitch_nm, r_min, r_max, along)["covers"]
+            turned = _turned_about(camera, axis, t), _turned_about(lamp, axis, t)
+            ok &= _quick_metrics(*turned, pitch_nm, r_min, r_max, along)["covers"]
         out[ok] = k * TILT_STEP_DEG
         alive = ok
     return out
