@@ -138,7 +138,7 @@ def test_a_photo_of_higher_orders_is_refused_with_what_it_holds():
 
 def test_a_processed_file_refused_for_its_coverage_is_told_its_colours_may_be_the_cause():
     """The same refusal for a camera-processed file read without a calibration of its processing:
-    the fit placed the wavelengths by colours the camera's rendering moved, so before the geometry
+    the fit placed the wavelengths by colours the camera's rendering moved, so after the geometry
     advice the message says so (a phone's CIE A JPEG through a real camera's rendering was told to
     move the lamp when it stood where the preset says)."""
     preset = grazing_preset(30.0)
@@ -155,7 +155,7 @@ def test_a_processed_file_refused_for_its_coverage_is_told_its_colours_may_be_th
     text = str(err.value)
     assert "holds none of 400–700 nm" in text or "holds only" in text
     hint = text.index("camera-processed file")
-    assert "shoot RAW" in text and hint < text.index("if the colours are right:")
+    assert "shoot RAW" in text and text.index("unless the colours misled the fit:") < hint
     # with a calibration of its processing that explains its own photo, the colours are trusted;
     # with one that cannot (20 % of its rainbow unexplained), the message names it
     from cd_spectra_addon.core.calibration.calibration import Calibration

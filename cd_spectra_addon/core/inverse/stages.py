@@ -600,8 +600,8 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     if seen and sum(b - a for a, b in stretches) < min_coverage_nm:
         name = Path(image.path).name or "the photo"
         advice = coverage_advice(posed.preset, scene)
-        if _processed_hint(posed):
-            advice = f"{_processed_hint(posed)}; if the colours are right: {advice}"
+        if _processed_hint(posed):  # after the geometry advice, which is right where the colours are
+            advice = f"{advice} — unless the colours misled the fit: {_processed_hint(posed)}"
         raise NoDiscError(_coverage_refusal(name, fit, stretches, advice, min_coverage_nm))
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or not found:
         name = Path(image.path).name or "the photo"
