@@ -300,7 +300,12 @@ def test_mixed_files_bad_lamps_and_missing_rainbows_are_refused_naming_the_file(
     photo.write_photo(blank, np.full((160, 160, 3), 0.2), "png16", None)
     with pytest.raises(NoDiscError, match="blank.png") as info:
         fit_shots([Shot(bulb, CIE_A), Shot(load_photo(blank), D65)], preset, CAMERA)
-    assert "known lamp" in str(info.value)
+    assert "known lamp" in str(info.value) and "camera-processed" not in str(info.value)
+    # an in-camera shot refused: its colours (the processing not known yet) may be why
+    for in_camera in (True, False):
+        with pytest.raises(NoDiscError) as info:
+            fit_shots([Shot(load_photo(blank), D65)], preset, CAMERA, pipeline=in_camera)
+        assert ("camera-processed shot: its colours can mislead the fit" in str(info.value)) == in_camera
 
 
 @pytest.mark.slow  # two phone JPEGs, 8 rounds of processing + sensitivities and the cross-check (~40 s)

@@ -111,16 +111,25 @@ def _check_alike(shots: Sequence[Shot], pipeline: bool | None) -> None:
 
 
 def _read(shot: Shot, k: int, n: int, preset: Preset, camera: CameraProfile, generic_camera: bool,
-          undo: Calibration | None = None) -> Reading:
+          undo: Calibration | None = None, processed: bool = False) -> Reading:
     """One shot posed and read (on its values with ``undo``'s processing undone, when given);
-    with several, a refusal names the file it is about."""
+    with several, a refusal names the file it is about. A refused in-camera shot (``processed``,
+    or read through ``undo``) is told its colours may be the cause: the fit places wavelengths by
+    the rainbow's colours, which the camera's processing — not known yet, or known only from the
+    first shot — moves (a phone's D65 shot through the Canon D30's real rendering was told to move
+    the lamp closer, the set-up being the preset's; bench/camera_files.md)."""
     where = "" if n == 1 else _label(shot.image, k, n)
     prefix = "" if not where else where + ": "
     try:
         return read_photo(shot.image, preset, camera, generic_camera=generic_camera, calibration=undo)
     except NoDiscError as exc:
-        raise NoDiscError(f"{'' if where in str(exc) else prefix}{exc} — calibration needs a photo of the disc lit "
-                          "by the known lamp, taken like the later photos") from exc
+        caution = ""
+        if (processed or shot.image.processed or undo is not None) and "camera-processed" not in str(exc):
+            so_far = ", with the processing fitted from the first shot undone," if undo is not None else ""
+            caution = (f" (a camera-processed shot: its colours{so_far} can mislead the fit and that advice — "
+                       "shoot RAW, or fix the white balance and turn off picture styles)")
+        raise NoDiscError(f"{'' if where in str(exc) else prefix}{exc}{caution} — calibration needs a photo of the "
+                          "disc lit by the known lamp, taken like the later photos") from exc
     except CDSpectraError as exc:
         if not where or where in str(exc):
             raise
@@ -243,7 +252,8 @@ def fit_shots(shots: Sequence[Shot], preset: Preset, camera: CameraProfile, gene
     # calibration's typical rendering, 192 px) lost its rainbow there and refused the calibration
     # over a reading it never used. (That pair is still refused, later: its processing fit finds
     # the bulb's colours unlike CIE A.)
-    firsts = [_read(s, k, n, preset, camera, generic_camera) for k, s in enumerate(shots[:1] if processed else shots)]
+    firsts = [_read(s, k, n, preset, camera, generic_camera, processed=processed)
+              for k, s in enumerate(shots[:1] if processed else shots)]
     basis, chosen = None, None
     total = PIPELINE_CAMERA_ROUNDS if processed and prior is not None else 1
     # With the camera's sensitivities fitted too, the rendering family (camera_pipeline.FAMILY) is
