@@ -25,6 +25,14 @@ SUB_BINS = 10  # λ₁ sub-bins per feature bin: the response shifts with λ₁ 
 # the BRDF work, but moved a calibration shot's camera fit by 1.1e-3 of the peak between a lamp
 # spectrum and 7× it (tests/test_camera_fit.py allows 1e-3; 3 × 3 gives 1.6e-4): kept at 3.
 FOOTPRINT = 3
+# Pixels of one λ₁ sub-bin can lie in two places: where lamp and camera face each other across the
+# disc (the redesigned tripod-oblique) both arms of the streak show 400–660 nm, one at r ≈ 45 mm,
+# the other out at the tracks' edge. One representative for both gave the whole sub-bin the
+# response of the heavier, an edge pixel whose footprint lies partly off the tracks: the 620 nm
+# bin's response 15 % low at a pose 0.4° off, a one-bin spike in the solve, peak-normalised MAE
+# 0.115 against 0.007 at the true pose (an LSPDD LED, bench/pose_errors.md's "lamp +5 mm" row).
+# So each sub-bin keeps a representative per RADIUS_STEP_MM ring of the disc.
+RADIUS_STEP_MM = 2.5
 
 __all__ = ["bin_response", "feature_matrix"]
 
@@ -32,10 +40,11 @@ __all__ = ["bin_response", "feature_matrix"]
 def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     """R[bin, λ] (NB × 81): readout value per unit lamp power in band λ (camera excluded).
 
-    Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by smooth
-    geometric factors. So the bin is split into λ₁ sub-bins; each sub-bin's weight
-    (Σ w·amplitude²) comes from all its pixels, its response from its heaviest pixel, averaged
-    over that pixel's footprint like the photo's pixel is.
+    Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by geometric
+    factors that are smooth along the disc. So the bin is split into λ₁ sub-bins and each of
+    those into rings of the disc (RADIUS_STEP_MM: both arms of a streak can show one λ₁); each
+    group's weight (Σ w·amplitude²) comes from all its pixels, its response from its heaviest
+    pixel, averaged over that pixel's footprint like the photo's pixel is.
     """
     px = readout.pixels
     w = readout.pixel_weight * px.amplitude ** 2
@@ -47,8 +56,12 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     sub = feature_bins(px.lambda1_nm[live], FEATURE_STEP_NM / SUB_BINS)
     n_sub = N_FEATURES * SUB_BINS
     sub = np.clip(sub, 0, n_sub - 1)
-    sub_weight = np.bincount(sub, weights=w[live], minlength=n_sub)
-    rep_at, rep_sub = _heaviest(sub, w[live], n_sub)
+    rings = int(np.ceil(scene.preset.disc.rim_radius_mm / RADIUS_STEP_MM)) + 1
+    ring = np.clip((px.radius_mm[live] / RADIUS_STEP_MM).astype(np.int64), 0, rings - 1)
+    group = sub * rings + ring  # (sub-bin, ring): pixels that share one response
+    n_groups = n_sub * rings
+    group_weight = np.bincount(group, weights=w[live], minlength=n_groups)
+    rep_at, rep_group = _heaviest(group, w[live], n_groups)
     rep = live[rep_at]
 
     width = scene.preset.camera.image_size_px[0]
@@ -70,10 +83,10 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     footprint = grating.band_radiance_sparse(frame, optics, WAVELENGTHS_NM, tabulated=True).summed(owner, rep.size)
     footprint /= dr.size  # missing samples count as black, as in the photo
     per_unit = footprint / px.amplitude[rep, None]
-    sub_response = np.zeros((n_sub, n_bands))
-    sub_response[rep_sub] = per_unit * sub_weight[rep_sub, None]
-    response = sub_response.reshape(N_FEATURES, SUB_BINS, n_bands).sum(axis=1)
-    totals = sub_weight.reshape(N_FEATURES, SUB_BINS).sum(axis=1)
+    rep_bin = rep_group // (rings * SUB_BINS)
+    weights = group_weight[rep_group]
+    np.add.at(response, rep_bin, per_unit * weights[:, None])
+    totals = np.bincount(rep_bin, weights=weights, minlength=N_FEATURES)
     response /= np.where(totals > 0, totals, 1.0)[:, None]
     response[~readout.valid] = 0.0
     return response
