@@ -222,6 +222,16 @@ def test_profile_residuals_survive_a_vanishing_lobe(values, lam, amp, exponent):
         assert np.allclose(small, same, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.parametrize("name", ["cd-default", "tripod-oblique"])
+def test_a_photo_of_subnormal_values_gives_a_finite_fit(name):
+    """The example hypothesis found below (every value 5e-324, one 0): the outline's Otsu
+    threshold asked numpy for 256 bins over a range it cannot split and raised."""
+    image = np.full((48, 48, 3), 5e-324)
+    image[0, 0, 0] = 0.0
+    fit = fit_pose(image, load_preset(name), 60.0, sensitivities=CAMERA.sensitivities, saturated=image.max(axis=2) >= 1.0)
+    assert np.all(np.isfinite([*fit.center_px, fit.lobe_sigma, fit.residual, fit.null_residual, fit.distance_mm]))
+
+
 @pytest.mark.slow  # make test only: 3.5 s, the second slowest check of make test-fast
 @settings(max_examples=8, deadline=None)
 @given(arrays(np.float64, (48, 48, 3), elements=st.floats(0.0, 1.0)),

@@ -59,6 +59,11 @@ class Ellipse:
 
 
 def _otsu(values: NDArray[np.float64]) -> float:
+    lo, hi = float(np.min(values)), float(np.max(values))
+    if hi - lo < 1024.0 * np.spacing(max(abs(lo), abs(hi), np.finfo(np.float64).tiny)):
+        # too narrow a range for 256 distinct bin edges (numpy raises: a photo of subnormal
+        # values, found by hypothesis): nothing to split
+        return lo
     hist, edges = np.histogram(values, bins=256)
     centres = 0.5 * (edges[:-1] + edges[1:])
     w0 = np.cumsum(hist)
