@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,7 +16,7 @@ from cd_spectra_addon.core.inverse.stages import pose_photo, read_posed
 from cd_spectra_addon.core.photo.images import ExifInfo, LinearImage
 from cd_spectra_addon.core.pose.lines import line_agreement, line_fit, ridge_pixels, top_hat
 from cd_spectra_addon.core.pose.result import PoseFit
-from cd_spectra_addon.core.scene.capture import Scene, load_preset, preset_from_dict
+from cd_spectra_addon.core.scene.capture import Preset, Scene, load_preset, preset_from_dict
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.scene.relative_pose import N_PARAMS, apply_params, relative_pose
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
@@ -117,16 +118,23 @@ def test_a_lamp_on_the_cameras_side_shows_only_higher_orders():
     assert agreement.orders and 1 not in agreement.orders
 
 
+def _higher_orders(**image: Any) -> tuple[Preset, PoseFit, LinearImage]:
+    """A grazing capture whose lines are the 3rd and 4th orders, its fit, and the photo as a file
+    with ``image``'s fields (encoding, path, processed ...)."""
+    preset = grazing_preset(30.0)
+    scene = Scene(preset)
+    rgb = _photo(scene)
+    fit = replace(PoseFit.of_scene(scene), residual=0.5, null_residual=1.0, lines_pinned=True, line_orders=(3, 4))
+    linear = LinearImage(rgb=rgb.astype(np.float32), saturated=rgb.max(axis=2) >= 1.0,
+                         invalid=np.zeros(rgb.shape[:2], bool), scale=1.0, original_size=(WIDTH, HEIGHT),
+                         exif=ExifInfo(), **image)
+    return preset, fit, linear
+
+
 def test_a_photo_of_higher_orders_is_refused_with_what_it_holds():
     """The first order misses 400–700 nm: refused, saying how much it holds and which orders
     the lines are, never 'no CD rainbow found'."""
-    preset = grazing_preset(30.0)
-    scene = Scene(preset)
-    image = _photo(scene)
-    fit = replace(PoseFit.of_scene(scene), residual=0.5, null_residual=1.0, lines_pinned=True, line_orders=(3, 4))
-    linear = LinearImage(rgb=image.astype(np.float32), saturated=image.max(axis=2) >= 1.0,
-                         invalid=np.zeros(image.shape[:2], bool), scale=1.0, original_size=(WIDTH, HEIGHT),
-                         encoding="linear-float", exif=ExifInfo(), path="higher.png")
+    preset, fit, linear = _higher_orders(encoding="linear-float", path="higher.png")
     posed = pose_photo(linear, preset, CAMERA, focal_px=FOCAL_PX, fit=fit)
     with pytest.raises(NoDiscError) as err:
         read_posed(posed)
@@ -141,14 +149,8 @@ def test_a_processed_file_refused_for_its_coverage_is_told_its_colours_may_be_th
     the fit placed the wavelengths by colours the camera's rendering moved, so after the geometry
     advice the message says so (a phone's CIE A JPEG through a real camera's rendering was told to
     move the lamp when it stood where the preset says)."""
-    preset = grazing_preset(30.0)
-    scene = Scene(preset)
-    image = _photo(scene)
-    fit = replace(PoseFit.of_scene(scene), residual=0.5, null_residual=1.0, lines_pinned=True, line_orders=(3, 4))
-    linear = LinearImage(rgb=image.astype(np.float32), saturated=image.max(axis=2) >= 1.0,
-                         invalid=np.zeros(image.shape[:2], bool), scale=1.0, original_size=(WIDTH, HEIGHT),
-                         encoding="srgb-8", exif=ExifInfo(), path="higher.jpg", processed=True,
-                         processed_reason="EXIF WhiteBalance (auto) says the camera white-balanced it")
+    preset, fit, linear = _higher_orders(encoding="srgb-8", path="higher.jpg", processed=True,
+                                         processed_reason="EXIF WhiteBalance (auto) says the camera white-balanced it")
     posed = pose_photo(linear, preset, CAMERA, focal_px=FOCAL_PX, fit=fit)
     with pytest.raises(NoDiscError) as err:
         read_posed(posed)
