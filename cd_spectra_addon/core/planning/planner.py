@@ -66,8 +66,8 @@ _OFF_PLANE_ANALYSED = 15  # per turn: the fallback costs ≤ 6 × 15 full analys
 # this: a disc laid on a table without a level is off by 1–3°, and a tilt in the plane of lamp and
 # camera moves the first order's wavelengths by 35–56 nm per degree (setups.TILT_COVERAGE). Ranked
 # before the blur: the tripod set-up of version 2 (lamp 300 mm, 7.5° and 27.5° on one side) was
-# the sharpest (13 nm) but lost half of 400–700 nm at 3° of tilt (synthetic LSPDD photos: MAE
-# 0.016 → 0.082, 0.071 at the true pose).
+# the sharpest (13 nm) but lost half of 400–700 nm at 3° of tilt (bench/pose_errors.md, simulated
+# photos of 4 LSPDD lamps: nominal 0.013, tilted 3° 0.082, 0.071 at the true pose).
 TILT_GOAL_DEG = 3.0
 
 

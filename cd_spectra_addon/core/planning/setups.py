@@ -488,10 +488,10 @@ def visible_share(scene: Scene) -> float:
 
 
 def tilt_tolerance_deg(preset: Preset, limit_deg: float = TILT_LIMIT_DEG) -> float:
-    """The largest disc tilt (TILT_STEP_DEG steps, up to TILT_LIMIT_DEG) for which the first order
+    """The largest disc tilt (TILT_STEP_DEG steps, up to ``limit_deg``) for which the first order
     still shows TILT_COVERAGE of 400–700 nm whichever way the disc tips (about x and about y, both
-    signs): how level a user must lay it; searched up to ``limit_deg``. A disc on a table is rarely within 1° without a level;
-    the near-axis capture, whose first order only slides along the line, keeps its 400–700 nm."""
+    signs): how level a user must lay it. A disc on a table is rarely within 1° without a level;
+    the near-axis capture, whose first order only slides along the line, keeps 400–700 nm to 3°."""
     ok = 0.0
     for k in range(1, int(round(limit_deg / TILT_STEP_DEG)) + 1):
         tilt = k * TILT_STEP_DEG
