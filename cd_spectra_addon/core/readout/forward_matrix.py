@@ -31,8 +31,12 @@ FOOTPRINT = 3
 # response of the heavier, an edge pixel whose footprint lies partly off the tracks: the 620 nm
 # bin's response 15 % low at a pose 0.4° off, a one-bin spike in the solve, peak-normalised MAE
 # 0.115 against 0.007 at the true pose (an LSPDD LED, bench/pose_errors.md's "lamp +5 mm" row).
-# So each sub-bin keeps a representative per RADIUS_STEP_MM ring of the disc.
+# So a sub-bin whose pixels spread over more than SPREAD_MM of radius (std) keeps a representative
+# per RADIUS_STEP_MM ring of the disc; one on a single ring or arm (a coaxial lamp's rings: a
+# sub-bin is a 0.03 mm annulus) keeps its one, as before — splitting those at the ring boundaries
+# moved a two-lamp calibration's colour error on cd-default (tests/test_calibration_shots.py).
 RADIUS_STEP_MM = 2.5
+SPREAD_MM = 1.0
 
 __all__ = ["bin_response", "feature_matrix"]
 
@@ -41,9 +45,9 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     """R[bin, λ] (NB × 81): readout value per unit lamp power in band λ (camera excluded).
 
     Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by geometric
-    factors that are smooth along the disc. So the bin is split into λ₁ sub-bins and each of
-    those into rings of the disc (RADIUS_STEP_MM: both arms of a streak can show one λ₁); each
-    group's weight (Σ w·amplitude²) comes from all its pixels, its response from its heaviest
+    factors that are smooth along the disc. So the bin is split into λ₁ sub-bins, and a sub-bin
+    whose pixels lie far apart (both arms of a streak can show one λ₁: SPREAD_MM) into rings of
+    the disc (RADIUS_STEP_MM); each group's weight (Σ w·amplitude²) comes from all its pixels, its response from its heaviest
     pixel, averaged over that pixel's footprint like the photo's pixel is.
     """
     px = readout.pixels
@@ -57,7 +61,11 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     n_sub = N_FEATURES * SUB_BINS
     sub = np.clip(sub, 0, n_sub - 1)
     rings = int(np.ceil(scene.preset.disc.rim_radius_mm / RADIUS_STEP_MM)) + 1
-    ring = np.clip((px.radius_mm[live] / RADIUS_STEP_MM).astype(np.int64), 0, rings - 1)
+    radius = px.radius_mm[live]
+    count = np.maximum(np.bincount(sub, minlength=n_sub), 1)
+    mean = np.bincount(sub, weights=radius, minlength=n_sub) / count
+    spread = np.sqrt(np.maximum(np.bincount(sub, weights=radius * radius, minlength=n_sub) / count - mean * mean, 0.0))
+    ring = np.where(spread[sub] > SPREAD_MM, np.clip((radius / RADIUS_STEP_MM).astype(np.int64), 0, rings - 1), 0)
     group = sub * rings + ring  # (sub-bin, ring): pixels that share one response
     n_groups = n_sub * rings
     group_weight = np.bincount(group, weights=w[live], minlength=n_groups)
