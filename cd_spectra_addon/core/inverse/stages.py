@@ -599,9 +599,9 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     seen = found or on_curve(fit.line_share, fit.line_offset_px)
     if seen and sum(b - a for a, b in stretches) < min_coverage_nm:
         name = Path(image.path).name or "the photo"
-        advice = coverage_advice(posed.preset, scene)
-        if _processed_hint(posed):  # after the geometry advice, which is right where the colours are
-            advice = f"{advice} — unless the colours misled the fit: {_processed_hint(posed)}"
+        advice, caution = coverage_advice(posed.preset, scene), _processed_hint(posed)
+        if caution:  # after the geometry advice, which is right where the colours are
+            advice = f"{advice} — unless the colours misled the fit: {caution}"
         raise NoDiscError(_coverage_refusal(name, fit, stretches, advice, min_coverage_nm))
     if int(np.sum(readout.valid)) < MIN_VALID_BINS or not found:
         name = Path(image.path).name or "the photo"
@@ -610,8 +610,8 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
             hint = f" ({100 * posed.clipped_share:.0f}% of the photo is clipped: try a shorter exposure)"
         elif image.encoding.endswith("-8") and brightest_level(rgb, excluded) < DIM_LEVEL_8BIT:
             hint = " (the photo is very dark: try a longer exposure)"
-        elif _processed_hint(posed):
-            hint = f" ({_processed_hint(posed)})"
+        elif caution := _processed_hint(posed):
+            hint = f" ({caution})"
         advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")

@@ -47,8 +47,9 @@ def bin_response(scene: Scene, readout: Readout) -> NDArray[np.float64]:
     Inside a bin every pixel's response is the same lobe shifted by its λ₁, scaled by geometric
     factors that are smooth along the disc. So the bin is split into λ₁ sub-bins, and a sub-bin
     whose pixels lie far apart (both arms of a streak can show one λ₁: SPREAD_MM) into rings of
-    the disc (RADIUS_STEP_MM); each group's weight (Σ w·amplitude²) comes from all its pixels, its response from its heaviest
-    pixel, averaged over that pixel's footprint like the photo's pixel is.
+    the disc (RADIUS_STEP_MM); each group's weight (Σ w·amplitude²) comes from all its pixels,
+    its response from its heaviest pixel, averaged over that pixel's footprint like the photo's
+    pixel is.
     """
     px = readout.pixels
     w = readout.pixel_weight * px.amplitude ** 2
