@@ -218,6 +218,9 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
         m = colour_core.compare_spds(est.spd, lamp.spd)
         row = {"lamp": lamp.name, "mae": float(m["mae_400_700"]), "duv": float(m["delta_uv_prime"]),
                "confidence": float(est.confidence), "warnings": list(est.warnings), "fit_s": fit_s,
+               # what the confidence is built from, so that it can be judged against the error (.json)
+               "checks": {k: float(v) for k, v in est.extra.get("checks", {}).items()},
+               "fit_sigma": float(fit.lobe_sigma),
                **_pose_report(fit, scene)}
         if truth:
             try:  # the true capture may itself hold too little first order to read (a refusal): NaN

@@ -29,6 +29,15 @@ OUTLIER_MADS = 5.0
 CENSOR_SHARE = 0.1
 MIN_BIN_WEIGHT = 2.0  # Σ visibility² of the pixels used — about two fully visible pixels (not Σ amplitude²:
 # the geometric gain is relative to the disc centre's irradiance, ~0.1 under a grazing lamp)
+# Pixels this close to the tracks' inner or outer edge (mm on the disc) are read only in bins that
+# have too few others (EDGE_FALLBACK × MIN_BIN_WEIGHT): whether such a pixel lies on the tracks or
+# just off them turns on a fraction of a millimetre of the fitted pose, and one read off them is
+# dark where the fit expects the lamp. With lamp and camera facing each other across the disc
+# (tripod-oblique) one arm of the streak runs along the outer edge: a synthetic lamp read with
+# its pose 0.8 nm off had 60 % of its 625–635 nm pixels at r 57.6–58.5 mm dark, the bins' medians
+# 0, and the solve put 0 at 625 nm and its peak at 640 nm (MAE 400–700 0.37).
+EDGE_MARGIN_MM = 1.0
+EDGE_FALLBACK = 4.0
 
 __all__ = ["FEATURE_LAMBDA_NM", "FEATURE_STEP_NM", "MIN_VISIBILITY", "N_FEATURES", "Readout", "extract_readout"]
 
@@ -149,6 +158,12 @@ def extract_readout(
     # channel: numpy's reductions over a 3-long axis are ~10× slower, and give the same sums.)
     ratio = (flat[:, 0] + flat[:, 1] + flat[:, 2]) / vis
     usable = ~sat & np.isfinite(flat[:, 0]) & np.isfinite(flat[:, 1]) & np.isfinite(flat[:, 2])
+    disc = scene.preset.disc
+    edge = ((px.radius_mm > disc.grating_r_max_mm - EDGE_MARGIN_MM)
+            | (px.radius_mm < disc.grating_r_min_mm + EDGE_MARGIN_MM))
+    if np.any(edge):
+        inner = np.bincount(b, weights=(usable & ~edge) * px.visibility * px.visibility, minlength=N_FEATURES)
+        usable &= ~(edge & (inner[b] >= EDGE_FALLBACK * MIN_BIN_WEIGHT))
     b_usable = b[usable]
     groups = _groups(b_usable, N_FEATURES)
     med = _bin_median(b_usable, ratio[usable], N_FEATURES, groups)
