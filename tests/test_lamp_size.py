@@ -73,6 +73,22 @@ def test_a_lamp_near_the_search_ranges_end_is_bracketed(tmp_path):
     assert 0.011 / 1.04 < fit.lobe_sigma < 0.011 * 1.04
 
 
+def test_a_large_lamp_lowers_the_confidence_and_says_why(tmp_path):
+    """σ 0.01 blurs the colours over ~16 nm: the estimate says so and its confidence falls by
+    BLUR_OK_NM / blur; the preset's own lamp (σ 0.003, ~5 nm) is not flagged."""
+    from cd_spectra_addon.core.inverse.estimate import BLUR_OK_NM, estimate_image
+
+    for sigma in (0.01, load_preset("cd-default").light.lobe_sigma):
+        preset, loaded = _photo(tmp_path, sigma)
+        est = estimate_image(loaded, preset=preset, model=None)
+        blur = est.extra["checks"]["colour_blur_nm"]
+        said = [w for w in est.warnings if "blurred over" in w]
+        if sigma > 0.005:
+            assert blur > 1.4 * BLUR_OK_NM and said and est.confidence <= BLUR_OK_NM / blur + 1e-9
+        else:
+            assert blur < BLUR_OK_NM and not said and est.confidence > 0.9
+
+
 def test_the_preset_size_is_kept(tmp_path):
     """A lamp of the preset's own size keeps it (the readout already explained at σ 0.003)."""
     preset, loaded = _photo(tmp_path, preset_sigma := load_preset("cd-default").light.lobe_sigma)
