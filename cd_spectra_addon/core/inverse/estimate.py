@@ -168,11 +168,14 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
              "geometry_residual": float(analysis.fit.residual)}
     blur = colour_blur_nm(analysis.scene.preset, analysis.scene.preset.light.lobe_sigma, analysis.focal_px)
     stats["colour_blur_nm"] = blur
+    # Told last: where the pose is doubted, the fitted lamp size is part of that capture, and the
+    # pose's own warnings name the fix to try first.
+    blurred = None
     if blur > BLUR_OK_NM:
-        warnings.append(f"the rainbow's colours are blurred over about {blur:.0f} nm (the lamp looks large from the "
-                        "disc, or the disc spans few pixels): the spectrum's narrow features, and so its peak, are "
-                        "uncertain — use a smaller lamp (or a card with a small hole in front of it), or fill more "
-                        "of the frame with the disc")
+        blurred = (f"the rainbow's colours are blurred over about {blur:.0f} nm (the lamp looks large from the disc, "
+                   "or the disc spans few pixels): the spectrum's narrow features, and so its peak, are uncertain "
+                   "— use a smaller lamp (or a card with a small hole in front of it), or fill more of the frame "
+                   "with the disc")
         score *= max(0.3, BLUR_OK_NM / blur)
     shift = wavelength_shift_nm(readout, analysis.camera.sensitivities, blur)
     stats["colour_shift_nm"] = math.nan if shift is None else shift
@@ -264,6 +267,8 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     if image is not None and image.is_grey:
         warnings.append("the photo is greyscale: colour is what separates wavelengths — use the colour photo")
         score *= 0.3
+    if blurred:
+        warnings.append(blurred)
     return float(np.clip(score, 0.0, 1.0)), warnings, stats
 
 
