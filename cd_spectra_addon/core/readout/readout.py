@@ -34,8 +34,8 @@ MIN_BIN_WEIGHT = 2.0  # Σ visibility² of the pixels used — about two fully v
 # just off them turns on a fraction of a millimetre of the fitted pose, and one read off them is
 # dark where the fit expects the lamp. With lamp and camera facing each other across the disc
 # (tripod-oblique) one arm of the streak runs along the outer edge: a synthetic lamp read with
-# its pose 0.8 nm off had 60 % of its 625–635 nm pixels at r 57.6–58.5 mm dark, the bins' medians
-# 0, and the solve put 0 at 625 nm and its peak at 640 nm (MAE 400–700 0.37).
+# its fitted λ₁ 0.8 nm off had 60 % of its 625–635 nm pixels at r 57.6–58.5 mm dark, the bins'
+# medians 0, and the solve put 0 at 625 nm and its peak at 640 nm (MAE 400–700 0.37).
 EDGE_MARGIN_MM = 1.0
 EDGE_FALLBACK = 4.0
 
