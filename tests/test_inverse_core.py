@@ -86,13 +86,18 @@ def test_forward_matrix_reproduces_the_photo_profile(nominal):
     assert np.max(np.abs(scale * pred[ok] - prof.values[ok])) < 0.01 * prof.values[ok].max()
 
 
+def _tripod_512():
+    """tripod-oblique at 512 px with the disc ~400 px across (the lens lengthened 3.15×)."""
+    preset = load_preset("tripod-oblique").with_image_size(512)
+    return replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * 3.15))
+
+
 def test_forward_matrix_keeps_the_two_arms_of_a_streak_apart():
     """With lamp and camera facing each other across the disc (tripod-oblique, the disc tilted
     1° and 2°) both arms of the streak show 400–660 nm, one at r ≈ 45 mm and one out at the
     tracks' edge. One response per λ₁ sub-bin for both took the heavier pixel's, an edge pixel
     partly off the tracks: profile off by 0.82 % of its peak (0.46 % with a response per ring)."""
-    preset = load_preset("tripod-oblique").with_image_size(512)
-    preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * 3.15))
+    preset = _tripod_512()
     scene = Scene(preset, Pose(tilt_deg=(1.0, 2.0)))
     spd = np.exp(-0.5 * ((WAVELENGTHS_NM - 560) / 90) ** 2) + 0.6 * np.exp(-0.5 * ((WAVELENGTHS_NM - 611) / 6) ** 2)
     img = photo.linear_photo(render_cube(scene, supersample=3), spd, CAMERA)
@@ -112,8 +117,7 @@ def test_readout_leaves_out_an_edge_arm_the_fit_put_on_the_tracks():
     inner arm), the edge ones are left out. Here the photo's tracks end 0.7 mm before the
     geometry the readout is given: with them the 620-640 nm bins read 0 (the median of a bin
     mostly off the tracks) and the solve put the peak beside them."""
-    preset = load_preset("tripod-oblique").with_image_size(512)
-    preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * 3.15))
+    preset = _tripod_512()
     scene = Scene(preset, Pose(tilt_deg=(1.0, 2.0)))
     shorter = replace(preset, disc=replace(preset.disc, grating_r_max_mm=preset.disc.grating_r_max_mm - 0.7))
     spd = planck_spd(2856.0)
