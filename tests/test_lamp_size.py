@@ -7,10 +7,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from cd_spectra_addon.core.inverse.estimate import BLUR_OK_NM, estimate_image
 from cd_spectra_addon.core.inverse.stages import pose_photo, read_posed
 from cd_spectra_addon.core.photo.images import load_photo
-from cd_spectra_addon.core.pose.result import PoseFit
-from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.pose.result import PoseFit, colour_blur_nm
+from cd_spectra_addon.core.scene.capture import Scene, load_preset, preset_names
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
@@ -76,8 +77,6 @@ def test_a_lamp_near_the_search_ranges_end_is_bracketed(tmp_path):
 def test_a_large_lamp_lowers_the_confidence_and_says_why(tmp_path):
     """σ 0.01 blurs the colours over ~16 nm: the estimate says so and its confidence falls by
     BLUR_OK_NM / blur."""
-    from cd_spectra_addon.core.inverse.estimate import BLUR_OK_NM, estimate_image
-
     preset, loaded = _photo(tmp_path, 0.01)
     est = estimate_image(loaded, preset=preset, model=None)
     blur = est.extra["checks"]["colour_blur_nm"]
@@ -89,10 +88,6 @@ def test_every_presets_own_lamp_is_below_the_blur_warning():
     """The warning is for a lamp larger than the set-up's: each shipped preset's own lamp, read at
     the preset's image size (512 px: coarser pixels than a photo is read at), stays 5 % under it
     (phone-distant-lamp, the widest: 10.1 nm)."""
-    from cd_spectra_addon.core.inverse.estimate import BLUR_OK_NM
-    from cd_spectra_addon.core.pose.result import colour_blur_nm
-    from cd_spectra_addon.core.scene.capture import preset_names
-
     for name in preset_names():
         preset = load_preset(name)
         assert colour_blur_nm(preset, preset.light.lobe_sigma, preset.camera.focal_px) < BLUR_OK_NM / 1.05, name

@@ -158,11 +158,12 @@ def extract_readout(
     # channel: numpy's reductions over a 3-long axis are ~10× slower, and give the same sums.)
     ratio = (flat[:, 0] + flat[:, 1] + flat[:, 2]) / vis
     usable = ~sat & np.isfinite(flat[:, 0]) & np.isfinite(flat[:, 1]) & np.isfinite(flat[:, 2])
+    visible2 = px.visibility * px.visibility  # what MIN_BIN_WEIGHT counts
     disc = scene.preset.disc
     edge = ((px.radius_mm > disc.grating_r_max_mm - EDGE_MARGIN_MM)
             | (px.radius_mm < disc.grating_r_min_mm + EDGE_MARGIN_MM))
     if np.any(edge):
-        inner = np.bincount(b, weights=(usable & ~edge) * px.visibility * px.visibility, minlength=N_FEATURES)
+        inner = np.bincount(b, weights=(usable & ~edge) * visible2, minlength=N_FEATURES)
         usable &= ~(edge & (inner[b] >= EDGE_FALLBACK * MIN_BIN_WEIGHT))
     b_usable = b[usable]
     groups = _groups(b_usable, N_FEATURES)
@@ -189,7 +190,7 @@ def extract_readout(
     n_used = np.bincount(b, weights=weight, minlength=N_FEATURES)
     noise = np.sqrt(var / np.maximum(n_used - 1, 1)[:, None]) / np.sqrt(safe)[:, None]
     sat_frac = np.divide(sat_w, total_w, out=np.zeros(N_FEATURES), where=total_w > 0)
-    seen = np.bincount(b, weights=weight * px.visibility * px.visibility, minlength=N_FEATURES)
+    seen = np.bincount(b, weights=weight * visible2, minlength=N_FEATURES)
     valid = (seen >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
     values[~valid] = 0.0
     censored = None if clipped is None else _censored(clipped, px.index, b, weight * vis2, wv2)
