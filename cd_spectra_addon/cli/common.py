@@ -69,6 +69,14 @@ def atomic_path(target: Path) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+def check_preset_path(path: Path, option: str = "--write-preset") -> None:
+    """Refuse a preset file name or folder that cannot be written, before the work that fills it
+    (a plan takes ~2 s): UsageError."""
+    if path.suffix.lower() != ".json":
+        raise UsageError(f"{option} needs a .json file name, not {path.name!r}")
+    check_output(path)
+
+
 def write_preset_file(path: Path, data: dict[str, Any], option: str = "--write-preset") -> None:
     """A capture preset as a .json file, whole or not at all (the core's one atomic JSON writer);
     CDSpectraError (bad input) if the name or the folder is wrong."""

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ..core.errors import CDSpectraError
-from .common import UsageError, write_preset_file
+from .common import UsageError, check_preset_path, write_preset_file
 
 NAME = "plan"
 HELP = "where to put the lamp and the camera for the equipment you have"
@@ -70,6 +70,8 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """Plan, print the steps (or the plan as JSON) and write the preset when asked."""
     from ..core.planning.planner import plan_capture
 
+    if args.write_preset is not None:
+        check_preset_path(args.write_preset)
     try:
         plan = plan_capture(_equipment(args), name=args.write_preset.stem if args.write_preset else "planned")
         if args.write_preset is not None:
