@@ -38,8 +38,12 @@ def rng() -> np.random.Generator:
     return np.random.default_rng(1234)
 
 
+_BLENDER_PREFIXES = tuple(m + "." for m in BLENDER_MODULES)
+
+
 def _is_blender(name: str) -> bool:
-    return any(name == m or name.startswith(m + ".") for m in BLENDER_MODULES)
+    # one C call: it runs on every import statement a test executes (~0.6 M in make test-fast)
+    return name in BLENDER_MODULES or name.startswith(_BLENDER_PREFIXES)
 
 
 def _code_names(code: types.CodeType) -> Iterator[str]:

@@ -1,7 +1,8 @@
 """The headless command line: output contract, defaults, errors, atomic files, --blend.
 
 Most tests stand a fake estimator in for ``core.inverse.estimate`` and ``core.inverse.batch``
-(inserted into ``sys.modules`` of a child process), so the contract is tested apart from the model.
+(inserted into ``sys.modules`` for the run, :mod:`cli_runner`), so the contract is tested apart
+from the model; the real estimator and ``--blend`` run in a child ``python -m cd_spectra_addon``.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from cli_runner import run_in_process
 
 from cd_spectra_addon.core.scene.capture import DEFAULT_PRESET
 
@@ -68,6 +70,10 @@ RUNNER = FAKE_ESTIMATOR + textwrap.dedent('''
 
 def run_cli(*args: str, fake: bool = True, cwd: Path = ROOT,
             env_extra: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    """The command line with the fake estimator, in this process (:mod:`cli_runner`); in a child
+    Python where it runs the real one (``fake=False``) or writes a .blend (Blender's state)."""
+    if fake and "--blend" not in args:
+        return run_in_process(args, FAKE_ESTIMATOR, cwd, env_extra)
     env = {**os.environ, "PYTHONPATH": str(ROOT), **(env_extra or {})}
     cmd = [sys.executable, "-c", RUNNER, *args] if fake else [sys.executable, "-m", "cd_spectra_addon", *args]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, env=env, timeout=300)

@@ -38,12 +38,21 @@ def _assert_one_error(proc, folder: Path, before: list[str]) -> None:
     assert sorted(p.name for p in folder.iterdir()) == before
 
 
-@pytest.fixture
-def result_file(tmp_path: Path) -> Path:
-    photos = _photos(tmp_path, "lamp.jpg", "other_lamp.jpg")
-    out = tmp_path / "result.json"
+@pytest.fixture(scope="module")
+def estimated(tmp_path_factory: pytest.TempPathFactory) -> str:
+    """What ``estimate --json`` wrote for two photos (made once: the tests only read it)."""
+    folder = tmp_path_factory.mktemp("estimated")
+    photos = _photos(folder, "lamp.jpg", "other_lamp.jpg")
+    out = folder / "result.json"
     proc = run_cli("estimate", *photos, "--json", str(out))
     assert proc.returncode == 0, proc.stderr
+    return out.read_text()
+
+
+@pytest.fixture
+def result_file(tmp_path: Path, estimated: str) -> Path:
+    out = tmp_path / "result.json"
+    out.write_text(estimated)
     return out
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runner import run_in_process
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -49,16 +50,16 @@ FAKE_JOINT = textwrap.dedent('''
     module = types.ModuleType("cd_spectra_addon.core.inverse.joint")
     module.estimate_joint = estimate_joint
     sys.modules[module.__name__] = module
-    from cd_spectra_addon.__main__ import main
-    rc = main(sys.argv[1:])
-    sys.stdout.flush()
-    sys.exit(rc)
 ''')
 
 
 def run_cli(*args: str, fake: bool = True) -> subprocess.CompletedProcess[str]:
+    """The command line with the fake joint estimator in this process (:mod:`cli_runner`); the
+    real one in a child ``python -m cd_spectra_addon``."""
+    if fake:
+        return run_in_process(args, FAKE_JOINT, ROOT, blender_line=False)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cmd = [sys.executable, "-c", FAKE_JOINT, *args] if fake else [sys.executable, "-m", "cd_spectra_addon", *args]
+    cmd = [sys.executable, "-m", "cd_spectra_addon", *args]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env, timeout=300)
 
 
