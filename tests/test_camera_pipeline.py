@@ -271,3 +271,35 @@ def test_auto_camera_uses_exif_and_says_so_when_it_cannot(tmp_path, capture):
                            method="physics")
     assert any("made with the Canon_EOS_5D_Mark_III profile" in w for w in mixed.warnings)
     assert mixed.confidence < forced.confidence
+
+
+def test_a_processed_files_colour_blur_does_not_size_the_lamp(tmp_path, capture, monkeypatch):
+    """A rendering's gamut clipping and saturation blur the rainbow's colours as a larger lamp
+    does, so the lamp's size is judged on its colour blur (by the pose fit, or for a near-axis
+    set-up by the readout) only in camera-native files: an in-camera JPEG keeps the size its
+    capture was fitted at (a held-out rendering's LED was read at 3× the lamp's size, blur 15 nm
+    for 5, and the solve deconvolved that blur into one-bin spikes)."""
+    from cd_spectra_addon.core.inverse import stages
+
+    judged: list[str] = []
+    real_fit, real_sized = stages.fit_pose, stages.sized_by_readout
+
+    def fit_spy(*args, **kwargs):
+        if kwargs["judge_size"]:
+            judged.append("pose fit")
+        return real_fit(*args, **kwargs)
+
+    def sized_spy(posed):
+        judged.append("readout")
+        return real_sized(posed)
+
+    monkeypatch.setattr(stages, "fit_pose", fit_spy)
+    monkeypatch.setattr(stages, "sized_by_readout", sized_spy)
+    scene = capture[0]
+    jpeg = load_photo(_shoot(tmp_path, capture, _led(), "jpeg", pipeline_for(CAMERA, TYPICAL), seed=3))
+    native = load_photo(_shoot(tmp_path, capture, _led(), "native", None, fmt="exr", seed=3))
+    assert jpeg.processed and not native.processed
+    stages.pose_photo(jpeg, scene.preset, CAMERA)
+    assert judged == []
+    stages.pose_photo(native, scene.preset, CAMERA)
+    assert judged == ["readout"]

@@ -345,12 +345,22 @@ def pose_photo(
     # coaxial lamp; 24 MP cd-default JPEG: 15 ms of its 130).
     by_readout = (fitted and near_axis(preset) and not generic_camera and not image.is_grey
                   and not image.processed and image.colour_px <= 1.0)
+    # Nor does the pose fit judge a processed file's lamp size on its colour blur (fit_pose's
+    # _sized, which takes another size only where it explains the photo clearly better): a
+    # rendering's gamut clipping and saturation blur the rainbow's colours as a larger lamp does.
+    # A held-out rendering (camera_renderings' `ordinary`, CIE A calibration, 192 px) read an LED
+    # at σ 0.009 for the preset's 0.003 (blur 15 nm for 5), and the solve deconvolved that blur
+    # into one-bin spikes: MAE 0.27, read 0.012 without the judge. On the calibration's own
+    # family of renderings (training/simulation/camera_pipelines.py, the typical and a sampled
+    # one, 10 lamps each) nothing moved; holding σ in the coarse fit as well made them worse
+    # (0.020 -> 0.023, 0.032 -> 0.033), so only the judge is left out.
+    judge_size = not by_readout and not image.processed
     if fit is None:
         offset = rough_offset(rgb, excluded)
         linear = rgb - offset if np.any(offset != 0.0) else rgb  # a dark room's photo: no copy
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations,
-                       size_from_colour=not generic_camera, judge_size=not by_readout)
+                       size_from_colour=not generic_camera, judge_size=judge_size)
         options = focal_px_options(image) if source.startswith("exif") else []
         if len(options) > 1:
             # resized or cropped after it was taken: the focal length that explains the photo
@@ -359,7 +369,7 @@ def pose_photo(
                     continue
                 alt = fit_pose(linear, preset, other, sensitivities=camera.sensitivities, saturated=excluded,
                                strategies=strategies, escalations=escalations, size_from_colour=not generic_camera,
-                               judge_size=not by_readout)
+                               judge_size=judge_size)
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source
             source = {"exif": "exif, cropped", "exif-35mm": "exif-35mm, resized"}[source]
