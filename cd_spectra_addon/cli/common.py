@@ -79,12 +79,10 @@ def check_preset_path(path: Path, option: str = "--write-preset") -> None:
 
 def write_preset_file(path: Path, data: dict[str, Any], option: str = "--write-preset") -> None:
     """A capture preset as a .json file, whole or not at all (the core's one atomic JSON writer);
-    CDSpectraError (bad input) if the name or the folder is wrong."""
+    UsageError if the name or the folder is wrong (callers check first, :func:`check_preset_path`)."""
     from ..core.atomic_files import write_json
-    from ..core.errors import CDSpectraError
 
-    if path.suffix.lower() != ".json":
-        raise CDSpectraError(f"{option} needs a .json file name, not {path.name!r}")
+    check_preset_path(path, option)
     write_json(path, data)
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import CDSpectraError
-from .common import UsageError, write_preset_file
+from .common import UsageError, check_preset_path, write_preset_file
 
 NAME = "setup"
 HELP = "a set-up you measured (lamp and camera anywhere) as a preset, and what it delivers"
@@ -105,6 +105,8 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ..core.planning.setups import analyse, setup_from_dict
     from ..core.scene.capture import preset_from_dict, save_user_preset, user_preset_name
 
+    if args.write_preset is not None:
+        check_preset_path(args.write_preset)  # before the analysis, as plan does
     try:
         measurements = _measurements(args)
         if args.save:
