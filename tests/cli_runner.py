@@ -5,14 +5,13 @@ A child Python per call (``python -c FAKE``) cost ~0.15 s of start-up and import
 here. What a child gave for free is kept: the fake modules, the working folder and the
 environment are restored afterwards; stdout and stderr are captured apart; an escaping exception
 or ``SystemExit`` becomes the exit code a child would give; and the run's stderr ends with
-``BPY_LOADED`` where ``main`` imported Blender (the line the child runner printed), seen by
-watching ``__import__`` as conftest does. The entry point itself (``python -m cd_spectra_addon``)
+``BPY_LOADED`` where ``main`` imported bpy (the line the child runner printed), seen by
+conftest's watch of ``__import__`` (:mod:`import_watch`). The entry point itself (``python -m cd_spectra_addon``)
 stays tested through real children: every ``fake=False`` run and ``--blend``.
 """
 
 from __future__ import annotations
 
-import builtins
 import contextlib
 import io
 import os
@@ -20,7 +19,8 @@ import subprocess
 import sys
 import traceback
 from pathlib import Path
-from typing import Any
+
+from import_watch import ImportWatch
 
 
 def run_in_process(args: tuple[str, ...], prelude: str, cwd: Path,
@@ -33,20 +33,12 @@ def run_in_process(args: tuple[str, ...], prelude: str, cwd: Path,
     before = dict(sys.modules)
     saved_env, saved_cwd = dict(os.environ), os.getcwd()
     out, err = io.StringIO(), io.StringIO()
-    original_import = builtins.__import__
-    blender: list[str] = []
-
-    def watch(name: str, *rest: Any, **options: Any) -> Any:
-        if name == "bpy" or name.startswith("bpy."):
-            blender.append(name)
-        return original_import(name, *rest, **options)
-
+    watch = ImportWatch()
     try:
         os.environ.update(env_extra or {})
         os.chdir(cwd)
         exec(compile(prelude, "<fake estimator>", "exec"), {"__name__": "fake_estimator"})
-        builtins.__import__ = watch
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        with watch, contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
                 code = main(list(args))
             except SystemExit as exc:
@@ -55,7 +47,6 @@ def run_in_process(args: tuple[str, ...], prelude: str, cwd: Path,
                 traceback.print_exc()
                 code = 1
     finally:
-        builtins.__import__ = original_import
         os.chdir(saved_cwd)
         os.environ.clear()
         os.environ.update(saved_env)
@@ -66,5 +57,6 @@ def run_in_process(args: tuple[str, ...], prelude: str, cwd: Path,
                 else:
                     del sys.modules[name]
     if blender_line:
-        print("BPY_LOADED" if blender else "BPY_NOT_LOADED", file=err)
+        loaded = any(name == "bpy" or name.startswith("bpy.") for name in watch.seen)
+        print("BPY_LOADED" if loaded else "BPY_NOT_LOADED", file=err)
     return subprocess.CompletedProcess(["main", *args], int(code), out.getvalue(), err.getvalue())

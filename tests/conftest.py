@@ -14,7 +14,6 @@ bpy is pinned (requirements.txt): tests import it plainly and never skip without
 
 from __future__ import annotations
 
-import builtins
 import types
 from collections.abc import Iterator
 from typing import Any
@@ -22,28 +21,17 @@ from typing import Any
 import numpy as np
 import pytest
 from hypothesis import settings
+from import_watch import ImportWatch, is_blender
 
 # Hypothesis fails an example that runs longer than its deadline (200 ms by default): a wall-clock
 # assertion that a busy shared machine can break. No test here has one (most already said so).
 settings.register_profile("cd-spectra", deadline=None)
 settings.load_profile("cd-spectra")
 
-# Blender's modules, and project modules that import them at the top.
-BLENDER_MODULES = ("bpy", "addon_utils", "bmesh", "mathutils", "cd_spectra_addon.blender",
-                   "training.simulation.cycles_scene")
-
 
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(1234)
-
-
-_BLENDER_PREFIXES = tuple(m + "." for m in BLENDER_MODULES)
-
-
-def _is_blender(name: str) -> bool:
-    # one C call: it runs on every import statement a test executes (~0.6 M in make test-fast)
-    return name in BLENDER_MODULES or name.startswith(_BLENDER_PREFIXES)
 
 
 def _code_names(code: types.CodeType) -> Iterator[str]:
@@ -62,11 +50,11 @@ def _names_blender(func: Any, depth: int = 2) -> str | None:
         return None
     scope = getattr(func, "__globals__", {})
     for name in _code_names(code):
-        if _is_blender(name):
+        if is_blender(name):
             return name
         value = scope.get(name)
         owner = value.__name__ if isinstance(value, types.ModuleType) else getattr(value, "__module__", None)
-        if isinstance(owner, str) and _is_blender(owner):
+        if isinstance(owner, str) and is_blender(owner):
             return f"{name} ({owner})"
         if depth > 0 and isinstance(value, types.FunctionType) and value is not func:
             if (why := _names_blender(value, depth - 1)) is not None:
@@ -78,7 +66,7 @@ def _blender_use(item: pytest.Function) -> str | None:
     """Why ``item`` needs Blender, judged from its code, its fixtures and its module."""
     module = item.module
     for name, value in vars(module).items():
-        if isinstance(value, types.ModuleType) and _is_blender(value.__name__):
+        if isinstance(value, types.ModuleType) and is_blender(value.__name__):
             return f"its module imports {value.__name__} at the top"
     if (why := _names_blender(item.function)) is not None:
         return f"it uses {why}"
@@ -100,31 +88,10 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
                                 "(make test-fast deselects them):\n" + "\n".join(unmarked))
 
 
-class _ImportWatch:
-    """Records imports of Blender's modules while installed as ``builtins.__import__``."""
-
-    def __init__(self) -> None:
-        self.seen: list[str] = []
-        self._original = builtins.__import__
-
-    def __call__(self, name: str, globals: Any = None, locals: Any = None, fromlist: Any = (),
-                 level: int = 0) -> types.ModuleType:
-        if level == 0 and _is_blender(name) and name not in self.seen:
-            self.seen.append(name)
-        return self._original(name, globals, locals, fromlist, level)
-
-    def __enter__(self) -> _ImportWatch:
-        builtins.__import__ = self
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        builtins.__import__ = self._original
-
-
 def _watched(item: pytest.Item) -> Iterator[None]:
     if item.get_closest_marker("blender") is not None:
         return (yield)
-    with _ImportWatch() as watch:
+    with ImportWatch() as watch:
         result = yield
     if watch.seen:
         raise pytest.fail.Exception(f"{item.nodeid} imported {', '.join(watch.seen)} without "
