@@ -352,3 +352,26 @@ def test_the_tilt_tolerance_is_where_400_700_leaves_the_tracks():
     assert tilt_tolerance_deg(old) <= 1.0
     assert visible_share(Scene(old, Pose(tilt_deg=(0.0, 3.0)))) < 0.6
     assert tilt_tolerance_deg(load_preset("phone-near-axis")) >= 3.0
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.floats(300.0, 800.0), st.booleans()), min_size=2, max_size=60))
+def test_the_steps_a_streak_shows_are_those_some_joined_segment_reaches(samples):
+    """Coverage (the planner's, the analysis's, first_order_visible's) marks the 1 nm steps of
+    400–700 nm each segment between neighbouring samples reaches, widened by half a step: marked
+    at the segments' ends and summed, it is exactly the step-by-step definition; its runs are
+    the maximal stretches of marked steps."""
+    from cd_spectra_addon.core.planning.setups import _GRID_NM, _runs, _seen_nm
+
+    lam = np.array([v for v, _ in samples])
+    joined = np.array([j for _, j in samples[:-1]], dtype=bool)
+    expected = np.zeros(_GRID_NM.size, dtype=bool)
+    for i in np.flatnonzero(joined):
+        lo, hi = sorted((lam[i], lam[i + 1]))
+        expected |= (_GRID_NM >= lo - 0.5) & (_GRID_NM <= hi + 0.5)
+    seen = _seen_nm(lam, joined)
+    assert np.array_equal(seen, expected)
+    runs = _runs(seen)
+    assert sum(b - a for a, b in runs) == int(seen.sum())
+    for a, b in runs:
+        assert seen[a:b].all() and (a == 0 or not seen[a - 1]) and (b == seen.size or not seen[b])

@@ -465,20 +465,32 @@ def first_order_visible(scene: Scene, samples_per_mm: float = 10.0) -> list[tupl
     normal = scene.disc_normal
     ok = ((rc[:, 0] >= 0) & (rc[:, 0] <= height - 1) & (rc[:, 1] >= 0) & (rc[:, 1] <= width - 1)
           & ((scene.light_position * 1e3 - points) @ normal > 0) & ((scene.camera_position * 1e3 - points) @ normal > 0))
-    grid = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)
-    seen = np.zeros(grid.size, dtype=bool)
-    for a, b in zip(range(s.size - 1), range(1, s.size)):
-        if np.sign(s[a]) == np.sign(s[b]) and ok[a] and ok[b]:
-            lo, hi = sorted((lam[a], lam[b]))
-            seen |= (grid >= lo - 0.5) & (grid <= hi + 0.5)
-    out, start = [], None
-    for i, on in enumerate(np.append(seen, False)):
-        if on and start is None:
-            start = i
-        elif not on and start is not None:
-            out.append((float(grid[start]), float(grid[i - 1])))
-            start = None
-    return out
+    joined = (np.sign(s[:-1]) == np.sign(s[1:])) & ok[:-1] & ok[1:]
+    return [(float(_GRID_NM[a]), float(_GRID_NM[b - 1])) for a, b in _runs(_seen_nm(lam, joined))]
+
+
+_GRID_NM = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)  # 400–700 nm in the 1 nm steps coverage is told in
+
+
+def _seen_nm(lam: NDArray[np.float64], joined: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Which steps of :data:`_GRID_NM` the segments between neighbouring samples ``lam[i]``,
+    ``lam[i + 1]`` show where ``joined[i]`` (each widened by half a step): marked by their ends
+    and summed, not step by step (a planned capture analyses ~60 set-ups of ~2 400 segments)."""
+    lo = np.minimum(lam[:-1], lam[1:])[joined] - 0.5
+    hi = np.maximum(lam[:-1], lam[1:])[joined] + 0.5
+    start = np.searchsorted(_GRID_NM, lo, side="left")  # the first step ≥ lo
+    stop = np.searchsorted(_GRID_NM, hi, side="right")  # past the last step ≤ hi
+    keep = start < stop
+    mark = np.zeros(_GRID_NM.size + 1, np.int64)
+    np.add.at(mark, start[keep], 1)
+    np.add.at(mark, stop[keep], -1)
+    return np.cumsum(mark[:-1]) > 0
+
+
+def _runs(seen: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """The runs of True in ``seen`` as [start, stop) index pairs, in order."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], seen.astype(np.int8), [0]])))
+    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2])]
 
 
 def visible_share(scene: Scene) -> float:
@@ -673,7 +685,8 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
     glint = _glint(streak)
     sig_src = angular_sigma(setup.source_size_mm, float(np.linalg.norm(lamp - scene.disc_center * 1e3)))
     sig_ap = angular_sigma(setup.aperture_mm, float(np.linalg.norm(cam - scene.disc_center * 1e3)))
-    resolution, per_px = {}, {}
+    resolution: dict[float, float] = {}
+    at_nm: dict[float, float] = {}  # where on the streak each reported wavelength is read
     for lam_nm, where in positions.items():
         on = [x for x in where if disc.grating_r_min_mm <= abs(x) <= disc.grating_r_max_mm]
         on.sort(key=lambda x: x * read_side < 0)  # the half that shows the whole range first
@@ -688,7 +701,8 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
         ci_r, co_r = math.sqrt(max(1e-12, 1 - (wi @ e_here) ** 2)), math.sqrt(max(1e-12, 1 - (wo @ e_here) ** 2))
         std = disc.pitch_um * 1e3 * math.hypot(ci_r * sig_src, co_r * sig_ap)
         resolution[lam_nm] = float(2.3548 * std) if ci > 0 and co > 0 else float("inf")
-        per_px[lam_nm] = _nm_per_px(streak, x)
+        at_nm[lam_nm] = x
+    per_px = dict(zip(at_nm, _nm_per_px(streak, np.array(list(at_nm.values()), dtype=np.float64))))
     rim = _rim_points(scene)
     rc = scene.project(rim * 1e-3)
     width, height = preset.camera.image_size_px
@@ -718,29 +732,15 @@ def _coverage(parts: list[NDArray[np.float64]], lam: NDArray[np.float64], s: NDA
               data_blocked: NDArray[np.bool_], disc: Any) -> tuple[tuple[float, float] | None, bool]:
     """The contiguous stretch of 400–700 nm (1 nm steps) shown somewhere on the unblocked data
     area, allowing the two sides of the disc to share it."""
-    grid = np.arange(VISIBLE_NM[0], VISIBLE_NM[1] + 0.5, 1.0)
-    seen = np.zeros(grid.size, dtype=bool)
+    joined = np.zeros(s.size - 1, dtype=bool)
     for side in (1, -1):
         data = _on_data(s, disc, side)
-        idx = np.flatnonzero(data)
-        for a, b in zip(idx[:-1], idx[1:]):
-            if b != a + 1 or data_blocked[a] or data_blocked[b]:
-                continue
-            lo, hi = sorted((lam[a], lam[b]))
-            seen |= (grid >= lo - 0.5) & (grid <= hi + 0.5)
+        joined |= data[:-1] & data[1:]
+    seen = _seen_nm(lam, joined & ~data_blocked[:-1] & ~data_blocked[1:])
     if not np.any(seen):
         return None, False
-    # longest run of seen wavelengths
-    best, start, run = (0, 0), None, 0
-    for i, ok in enumerate(np.append(seen, False)):
-        if ok and start is None:
-            start = i
-        if not ok and start is not None:
-            if i - start > best[1] - best[0]:
-                best = (start, i)
-            start = None
-    lo, hi = float(grid[best[0]]), float(grid[best[1] - 1])
-    return (lo, hi), bool(np.all(seen))
+    a, b = max(_runs(seen), key=lambda run: run[1] - run[0])  # the longest (the first of equals)
+    return (float(_GRID_NM[a]), float(_GRID_NM[b - 1])), bool(np.all(seen))
 
 
 def _glint(streak: _Streak) -> list[float]:
@@ -761,13 +761,17 @@ def _glint(streak: _Streak) -> list[float]:
     return out
 
 
-def _nm_per_px(streak: _Streak, s_mm: float) -> float:
-    """How many nm one image pixel spans along the streak at signed position ``s_mm``."""
+def _nm_per_px(streak: _Streak, s_mm: NDArray[np.float64]) -> list[float]:
+    """How many nm one image pixel spans along the streak at each signed position ``s_mm``
+    (all in one pass of the kernel)."""
+    if s_mm.size == 0:
+        return []
     h = 0.05
-    _, pts, lam = streak.lambda1(np.array([s_mm - h, s_mm + h]))
+    _, pts, lam = streak.lambda1(np.concatenate([s_mm - h, s_mm + h]))
     rc = streak.scene.project(pts * 1e-3)
-    px = float(np.linalg.norm(rc[1] - rc[0]))
-    return float(abs(lam[1] - lam[0]) / max(px, 1e-12))
+    n = s_mm.size
+    px = np.linalg.norm(rc[n:] - rc[:n], axis=1)
+    return [float(v) for v in np.abs(lam[n:] - lam[:n]) / np.maximum(px, 1e-12)]
 
 
 def _rim_points(scene: Scene) -> NDArray[np.float64]:
