@@ -115,14 +115,17 @@ eval: setup eval-camera-files eval-poses
 # vs generic profile, held-out cameras (simulated, 30 real lamps; the rows calibrated from one
 # in-camera CIE A shot over 3 draws of its noise; ~15 min on one core, then camera_renderings ~6 min).
 # RAW_PAIRS=folder: real cameras' raw files with their JPEGs, whose renderings are learned (not in the repo).
-CAMERA_RENDERINGS = OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write \
-	$(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)")
+# Three sections: the JPEGs exposed as README's step 5 says (the goal rows), the same exposed for
+# the raw with the blinking highlights ignored (--metering raw), and from photos 4× the loaded size.
+CAMERA_RENDERINGS = for args in "--metering rendering" "--metering raw" "--upsample 4"; do \
+	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $$args \
+	$(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)") || exit 1; done
 eval-camera-files: setup
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_files --calibration-draws 3 --out bench/camera_files.md
 	$(CAMERA_RENDERINGS)
 
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of
-# bench/camera_files.md; ~20 min on one core).
+# bench/camera_files.md, three of them; ~50 min on one core).
 eval-camera-renderings: setup
 	$(CAMERA_RENDERINGS)
 

@@ -3,7 +3,9 @@ a photo or its calibration shot) instead of stopping the whole evaluation."""
 
 import numpy as np
 
+from cd_spectra_addon.core.spectra.cameras import load_camera
 from cd_spectra_addon.core.spectrum.model import load_model
+from training.evaluation.camera_files import UPSAMPLE
 from training.evaluation.camera_renderings import SETTINGS, Photographer, report, run
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd, planck_spd
 from training.evaluation.lamps import Lamp
@@ -26,3 +28,30 @@ def test_refused_photos_and_a_refused_calibration_are_rows_that_say_so(tmp_path)
             for r, name in ((photos, "black JPEG"), (calibrated, "black JPEG + CIE A calibration"))]
     text = report(rows, 2, 96, 1.0, "")
     assert "| test | black JPEG | refused |" in text and "| test | black JPEG + CIE A calibration | refused |" in text
+
+
+def test_jpegs_are_exposed_as_the_readme_says_in_third_stops(tmp_path):
+    """README's step 5 ("no clipped (blinking) highlights in the coloured part") as the held-out
+    renderings' exposure: compensation in 1/3 EV steps until at most BLINK_SHARE of the tracks
+    show a channel at code 255; metered on the raw instead, a warm lamp through daylight white
+    balance blinks over much of the rainbow."""
+    from training.evaluation.camera_renderings import BLINK_SHARE, STOP
+    from training.evaluation.renderings import ordinary
+
+    camera = load_camera(SETTINGS[0].camera)
+    lamp = known_lamp_spd("incandescent")
+    blinks = {}
+    for metering in ("raw", "rendering"):
+        (tmp_path / metering).mkdir()
+        ph = Photographer(tmp_path / metering, 64, metering)
+        ph.jpeg(lamp, camera, SETTINGS[0].exif, "ordinary", 3, "a")
+        ev = ph.compensation_ev[-1]
+        exposure = STOP ** round(-3 * ev)
+        native = ph.shooter.native(lamp, camera, 3, UPSAMPLE, exposure=exposure)
+        blinks[metering] = (ev, ph.blinking(ordinary(native, camera)))
+    (raw_ev, raw_blink), (ev, blink) = blinks["raw"], blinks["rendering"]
+    assert raw_ev == 0.0 and raw_blink > 10 * BLINK_SHARE
+    assert ev < 0 and abs(3 * ev - round(3 * ev)) < 1e-9 and blink <= BLINK_SHARE
+    # one third-stop less would still blink: the brightest exposure that does not
+    brighter = ph.shooter.native(lamp, camera, 3, UPSAMPLE, exposure=STOP ** (round(-3 * ev) - 1))
+    assert ph.blinking(ordinary(brighter, camera)) > BLINK_SHARE

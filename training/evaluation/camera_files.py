@@ -157,10 +157,11 @@ class Shooter:
         row's file is :data:`UPSAMPLE` or 4× that per side: see :func:`photo.read_rendered`)."""
         return photo.read_rendered(path, self.scene)
 
-    def native(self, spd: np.ndarray, camera: CameraProfile, seed: int, upsample: int, per_site: bool = False
-               ) -> np.ndarray:
-        """Exposed sensor values with noise: per pixel (H, W, 3), or per Bayer photosite (2H, 2W)."""
-        image, _ = photo.expose(photo.linear_photo(self.cube, spd, camera), 1.0, self.meter)
+    def native(self, spd: np.ndarray, camera: CameraProfile, seed: int, upsample: int, per_site: bool = False,
+               exposure: float = 1.0) -> np.ndarray:
+        """Exposed sensor values with noise: per pixel (H, W, 3), or per Bayer photosite (2H, 2W);
+        ``exposure`` × the raw-peak metering (:func:`photo.expose`)."""
+        image, _ = photo.expose(photo.linear_photo(self.cube, spd, camera), exposure, self.meter)
         image = photo.upsample(image, upsample)
         rng = np.random.default_rng(seed)
         if per_site:

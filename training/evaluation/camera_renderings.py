@@ -1,7 +1,8 @@
 """In-camera JPEGs from renderings the calibration never modelled (→ a section of bench/camera_files.md).
 
     python -m training.evaluation.camera_renderings [--lamps 10] [--size 192] [--renderings ordinary,...]
-        [--settings dslr,phone] [--calibrations "CIE A,CIE A and D65"] [--write]
+        [--settings dslr,phone] [--calibrations "CIE A,CIE A and D65"] [--metering rendering|raw]
+        [--real-pairs FOLDER] [--write]
 
 Each held-out rendering (:mod:`training.evaluation.renderings`: ``ordinary``, ``luma-curve``,
 ``curve-first``, ``phone``; and ``libraw``, LibRaw's own rendering of the simulated DNG through
@@ -19,9 +20,16 @@ Two cameras:
   fitted sensitivities are used); reference: its DNG read with its own profile named by hand,
   and the generic profile + a CIE A calibration on the DNG.
 
-Real cameras' own renderings (learned from public RAW+JPEG pairs) are not measured: no such pair
-could be fetched where this was built (the public raw test files found — rawpy's and
-rawtoaces' — are larger than the copies available here hold), so nothing reads them yet.
+Each JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the
+coloured part: exposure compensation in 1/3 EV steps down from the raw-peak metering until at
+most :data:`BLINK_SHARE` of the disc's tracks show a channel at code 255 — or, with ``--metering
+raw`` (its own section), at the raw-peak metering with the highlight alert ignored: the
+renderings then write 10–60 % of the rainbow at code 255, and LibRaw clips raw channels after
+its white balance, before its matrix, which spoils the other channels of those pixels too.
+
+Real cameras' own renderings, learned from a RAW file and the JPEG its camera wrote
+(:mod:`.learned_rendering`), are applied to the same captures when ``--real-pairs`` names a
+folder of them (not in the repository: their licences are unknown).
 
 Every file is read by the product's decoders at the rendered size (``Shooter.read``: the DNG
 binned and the JPEGs reduced 2×, LibRaw's full-photosite JPEG 4×; ``load_for_estimate`` would read
@@ -51,6 +59,7 @@ from cd_spectra_addon.core.inverse.calibration_shot import Shot, calibrate_shots
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.photo.raw_files import is_raw_path
+from cd_spectra_addon.core.photo.srgb import srgb_encode
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.spectrum.model import load_model
@@ -69,8 +78,22 @@ __all__ = ["main"]
 
 UPSAMPLE = 2
 PHONE = str(EXTERNAL_DIR / "Nokia_N900.json")
-SECTION_START = "<!-- camera_renderings: start -->"
-SECTION_END = "<!-- camera_renderings: end -->"
+# README's capture step 5, "expose for the rainbow: no clipped (blinking) highlights in the coloured
+# part", as a person does it with a camera's highlight alert: exposure compensation in 1/3 EV steps
+# down from the raw-peak metering until at most BLINK_SHARE of the disc's tracks show a channel at
+# code 255 (the own family's rule: the brightest 0.1 % of the metered area at 90 %).
+BLINK_CODE = 254.5
+BLINK_SHARE = 0.001
+STOP = 2.0 ** (-1.0 / 3.0)
+MAX_STOPS = 15  # −5 EV at most
+METERINGS = ("rendering", "raw")
+
+
+def _section(metering: str, upsample: int) -> tuple[str, str, str]:
+    """(start marker, end marker, json name) of the run's section: one per exposure rule and file size."""
+    tag = ("" if metering == "rendering" else " raw-metered") + ("" if upsample == UPSAMPLE else f" {upsample}x")
+    name = "camera_renderings" + tag.replace(" ", "_").replace("-", "_") + ".json"
+    return f"<!-- camera_renderings{tag}: start -->", f"<!-- camera_renderings{tag}: end -->", name
 Renderer = Callable[[NDArray[np.float64], CameraProfile], NDArray[np.float64]]
 
 
@@ -91,9 +114,12 @@ SETTINGS = [Setting("dslr", "Canon EOS 5D Mark III (profiled)", DEFAULT_CAMERA, 
 class Photographer:
     """The shooter of ``camera_files`` with other renderings: (file kind, rendering) → loaded photo."""
 
-    def __init__(self, tmp: Path, size: int):
+    def __init__(self, tmp: Path, size: int, metering: str = "rendering", upsample: int = UPSAMPLE):
         self.shooter = Shooter(tmp, size)
         self.tmp = tmp
+        self.upsample = upsample  # the file's pixels per loaded pixel, per side
+        self.metering = metering  # "rendering": README's step 5 (see BLINK_SHARE); "raw": the raw peak at 80 %
+        self.compensation_ev: list[float] = []  # each JPEG's exposure compensation
 
     @property
     def preset(self):  # noqa: ANN201 - the shooter's preset
@@ -103,12 +129,15 @@ class Photographer:
         cam = self.preset.camera
         return photo.exif_for(cam.focal_length_mm, cam.sensor_width_mm, width, exif_name)
 
-    def _dng(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, seed: int, tag: str) -> Path:
+    def _dng(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, seed: int, tag: str,
+             exposure: float = 1.0) -> Path:
         cam = self.preset.camera
-        width = cam.image_size_px[0] * UPSAMPLE
+        width = cam.image_size_px[0] * self.upsample
         make, _, model = exif_name.replace("_", " ").partition(" ")
         path = self.tmp / f"{tag}.dng"
-        path.write_bytes(dng_bytes(self.shooter.native(spd, camera, seed, UPSAMPLE, per_site=True), black=512,
+        path.write_bytes(dng_bytes(self.shooter.native(spd, camera, seed, self.upsample, per_site=True,
+                                                       exposure=exposure),
+                                   black=512,
                                    white=15000, make=make, model=model or make, focal_length_mm=cam.focal_length_mm,
                                    focal_plane_px_per_mm=2 * width / cam.sensor_width_mm, seed=seed,
                                    colour_matrix=xyz_to_camera(camera)))
@@ -117,14 +146,31 @@ class Photographer:
     def raw(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, seed: int, tag: str) -> LinearImage:
         return self.shooter.read(self._dng(spd, camera, exif_name, seed, tag))
 
+    def _render(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, rendering: str | Renderer,
+                seed: int, tag: str, exposure: float) -> NDArray[np.float64]:
+        """The file-linear image ``rendering`` makes of the capture at ``exposure`` × the raw-peak metering."""
+        if rendering == "libraw":
+            return libraw_render(self._dng(spd, camera, exif_name, seed, tag, exposure), white_gains(camera))
+        render = RENDERINGS[rendering] if isinstance(rendering, str) else rendering
+        return render(self.shooter.native(spd, camera, seed, self.upsample, exposure=exposure), camera)
+
+    def blinking(self, image: NDArray[np.float64]) -> float:
+        """The share of the disc's tracks where a channel of ``image`` is written as code 255."""
+        meter = self.shooter.meter
+        factor = image.shape[0] // meter.shape[0]
+        tracks = photo.upsample(meter.astype(float), factor) > 0.5
+        return float(np.mean(np.any(srgb_encode(np.clip(image, 0.0, 1.0)) * 255.0 >= BLINK_CODE, axis=-1)[tracks]))
+
     def jpeg(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, rendering: str | Renderer,
              seed: int, tag: str) -> LinearImage:
         cam = self.preset.camera
-        if rendering == "libraw":
-            image = libraw_render(self._dng(spd, camera, exif_name, seed, tag), white_gains(camera))
-        else:
-            render = RENDERINGS[rendering] if isinstance(rendering, str) else rendering
-            image = render(self.shooter.native(spd, camera, seed, UPSAMPLE), camera)
+        exposure, stops = 1.0, 0
+        image = self._render(spd, camera, exif_name, rendering, seed, tag, exposure)
+        while self.metering == "rendering" and stops < MAX_STOPS and self.blinking(image) > BLINK_SHARE:
+            stops += 1
+            exposure = STOP ** stops
+            image = self._render(spd, camera, exif_name, rendering, seed, tag, exposure)
+        self.compensation_ev.append(-stops / 3.0)
         exif = in_camera_exif(self._exif(exif_name, image.shape[1]))
         path = self.tmp / f"{tag}.jpg"
         photo.write_photo(path, image, "jpg", exif)
@@ -168,6 +214,7 @@ def run(photographer: Photographer, setting: Setting, kind: str, rendering: str 
             return {"n": 0, "refused": len(lamps), "refused_calibration": str(exc),
                     "calibration_seconds": time.perf_counter() - t0, "calibration": {}, "warned_processing": 0.0}
     cal_seconds = time.perf_counter() - t0
+    photographer.compensation_ev.clear()  # the lamps' photos only
     rows, refused = [], []
     for i, lamp in enumerate(lamps):
         try:
@@ -187,6 +234,10 @@ def run(photographer: Photographer, setting: Setting, kind: str, rendering: str 
         out["calibration"]["reads_other_lamps"] = calibration_check(cal)["reads_other_lamps"]
     out["warned_processing"] = float(np.mean([any("shoot RAW" in w for w in r["warnings"]) for r in rows])) if rows \
         else 0.0
+    out["warned_exposure"] = float(np.mean([any("over-exposed" in w for w in r["warnings"]) for r in rows])) if rows \
+        else 0.0
+    out["compensation_ev"] = float(np.mean(photographer.compensation_ev)) if kind == "jpeg" and \
+        photographer.compensation_ev else None
     return out
 
 
@@ -195,30 +246,51 @@ def _lamps(n: int) -> list[Lamp]:
     return everything[3:: max(1, len(everything) // n)][:n]  # offset from camera_files' lamps
 
 
-def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float, real_note: str) -> str:
-    lines = [SECTION_START, "## In-camera JPEGs from renderings the calibration never modelled (issue 20)", "",
-             f"`python -m training.evaluation.camera_renderings --write` — {lamps} LSPDD lamps (evaluation only, "
-             f"other lamps than the tables above), nominal pose, {size}×{size} px read from a photo {UPSAMPLE}× that "
-             "per side (LibRaw's rendering: 4×, a pixel per photosite) by the product's decoders, 1 % sensor "
+def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float, real_note: str,
+           metering: str = "rendering", upsample: int = UPSAMPLE) -> str:
+    start, end, _ = _section(metering, upsample)
+    if metering == "rendering":
+        exposed = ("Every JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the "
+                   "coloured part: from the raw peak at 80 % of full scale, exposure compensation in 1/3 EV steps "
+                   f"until at most {100 * BLINK_SHARE:.1f} % of the disc's tracks show a channel at code 255 (column "
+                   "*exposure*: the mean compensation). Column *warned*: the photos whose estimate says they are "
+                   "over-exposed.")
+    else:
+        exposed = ("Every JPEG is exposed for the raw instead (its peak at 80 % of full scale), the highlight alert "
+                   "ignored: warm or saturated colours pass code 255 in 10–60 % of the rainbow's pixels. Column "
+                   "*warned*: the photos whose estimate says they are over-exposed.")
+    if upsample == UPSAMPLE:
+        title = ("## In-camera JPEGs from renderings the calibration never modelled (issue 20)" if metering == "rendering"
+                 else "## The same, over-exposed: the blinking highlights ignored (issue 20)")
+    else:
+        title = (f"## The same from photos {upsample}× the loaded size per side (issue 20)" if metering == "rendering"
+                 else f"## The same, over-exposed, from photos {upsample}× the loaded size per side (issue 20)")
+    flags = ("" if metering == "rendering" else " --metering raw") + ("" if upsample == UPSAMPLE else
+                                                                       f" --upsample {upsample}")
+    lines = [start, title, "", exposed, "",
+             f"`python -m training.evaluation.camera_renderings --write{flags}` — {lamps} LSPDD lamps (evaluation "
+             f"only, other lamps than the tables above), nominal pose, {size}×{size} px read from a photo {upsample}× "
+             f"that per side (LibRaw's rendering: {2 * upsample}×, a pixel per photosite) by the product's decoders, 1 % sensor "
              "noise, the shipped model; each JPEG is 8-bit 4:2:0 quality 90 with a camera's EXIF "
              "(sRGB, fixed white balance), calibrated by one CIE A photo rendered the same way, as `calibrate "
              "--known-lamp A` does, or by a CIE A and a D65 photo (same white balance and settings, each exposed as "
-             "the camera meters it), as `calibrate A.jpg D65.jpg --known-lamp A --known-lamp D65` does. "
+             "above), as `calibrate A.jpg D65.jpg --known-lamp A --known-lamp D65` does. "
              f"{seconds:.0f} s on one core. Renderings (`training/evaluation/renderings.py`, "
-             "held out of every fit and prior): `ordinary` — raw exposed as a camera meters it, daylight white "
+             "held out of every fit and prior): `ordinary` — daylight white "
              "balance, a 3×3 matrix fitted to the CIE observer's gamut-clipped spectral colours, per-channel clipping, "
              "sRGB curve + S-shaped picture style; `luma-curve` — contrast on luminance, gamut compressed towards "
              "luminance; `curve-first` — a film-like curve per channel before the matrix; `phone` — +25 % "
              "saturation, a hue twist, highlight roll-off, local tone mapping; `libraw` — LibRaw's rendering of the "
              "simulated DNG (rawpy `postprocess`, the camera's own matrix, daylight multipliers). **Simulator "
              "figures.**", "",
-             "| camera | file | MAE 400–700 (median) | × RAW | Δu'v' | confidence | calibration explains its photo |",
-             "|---|---|---|---|---|---|---|"]
+             "| camera | file | MAE 400–700 (median) | × RAW | Δu'v' | confidence | exposure | warned | "
+             "calibration explains its photo |",
+             "|---|---|---|---|---|---|---|---|---|"]
     refs = {(r["setting"], r["row"]): r for r in results}
     for r in results:
         if r.get("n", 0) == 0:
             why = re.sub(r"(/[^\s/]+)+/", "", r.get("refused_calibration") or "every photo refused")  # no tmp paths
-            lines.append(f"| {r['setting_label']} | {r['row']} | refused | – | – | – | **{why[:160]}** |")
+            lines.append(f"| {r['setting_label']} | {r['row']} | refused | – | – | – | – | – | **{why[:160]}** |")
             continue
         ref = refs.get((r["setting"], r["reference"])) if r.get("reference") else None
         ratio = f"{r['mae_400_700'] / ref['mae_400_700']:.2f}" if ref else "–"
@@ -228,8 +300,12 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
         explains += _cross_check_cell(r.get("calibration", {}))
         if r.get("refused"):
             explains += f"; **{r['refused']} of {r['refused'] + r['n']} photos refused**"
+        ev = r.get("compensation_ev")
+        exposure = "–" if ev is None else f"{ev:+.1f} EV"
+        warned = f"{100 * r.get('warned_exposure', 0.0):.0f} %"
         lines.append(f"| {r['setting_label']} | {r['row']} | {r['mae_400_700']:.4f} ({r['mae_400_700_median']:.4f}) | "
-                     f"{ratio} | {r['delta_uv_prime']:.4f} | {r['confidence']:.2f} | {explains} |")
+                     f"{ratio} | {r['delta_uv_prime']:.4f} | {r['confidence']:.2f} | {exposure} | {warned} | "
+                     f"{explains} |")
     lines += ["", "The last column also gives, for a CIE A + D65 calibration, its cross-check as `calibrate` prints it: "
               "each known lamp read with the calibration the other alone gives (MAE 400–700 against its known SPD). "
               f"Judged for the profiled camera (above {CROSS_CHECK_LIMIT:.3f}, 3× the worst of the calibration's own "
@@ -237,7 +313,7 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
               "confidence); for the generic profile reported only, since one lamp alone cannot measure the camera.",
               "", "Goal (issue 20): in-camera JPEG + a calibration within 1.5× of RAW in MAE 400–700 and "
               "Δu'v' ≤ 0.002 on every held-out rendering, for the profiled camera and for the phone; the phone's "
-              "generic profile + calibration within 1.3× of its own profile on RAW.", "", real_note, SECTION_END]
+              "generic profile + calibration within 1.3× of its own profile on RAW.", "", real_note, end]
     return "\n".join(lines)
 
 
@@ -287,10 +363,11 @@ def _cross_check_cell(calibration: dict[str, Any]) -> str:
     return "; cross-check " + ", ".join(parts) + flag
 
 
-def write_section(text: str, path: Path) -> None:
+def write_section(text: str, path: Path, metering: str = "rendering", upsample: int = UPSAMPLE) -> None:
     """Replace (or append) this command's section of ``path``, leaving the rest as it is."""
+    start, end, _ = _section(metering, upsample)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
-    pattern = re.compile(re.escape(SECTION_START) + r".*?" + re.escape(SECTION_END), re.S)
+    pattern = re.compile(re.escape(start) + r".*?" + re.escape(end), re.S)
     new = pattern.sub(lambda _: text, old) if pattern.search(old) else old.rstrip("\n") + "\n\n" + text + "\n"
     path.write_text(new, encoding="utf-8")
 
@@ -306,8 +383,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--real-pairs", type=Path, default=None,
                         help="a folder of real cameras' raw files (each with the camera's JPEG beside it, same stem, "
                              "or embedded): their own renderings are learned and applied to the simulated captures")
+    parser.add_argument("--upsample", type=int, default=UPSAMPLE,
+                        help="the files' pixels per loaded pixel, per side (a 24 MP photo is read at 1/4 or less)")
+    parser.add_argument("--metering", choices=METERINGS, default="rendering",
+                        help="rendering: each JPEG exposed as README's step 5 says (no blinking highlights); raw: "
+                             "the raw peak at 80 %% of full scale, the highlights ignored (its own section)")
     parser.add_argument("--write", action="store_true", help="write the section into bench/camera_files.md")
     args = parser.parse_args(argv)
+    if args.upsample < 1:
+        parser.error("--upsample must be 1 or more")
     t0 = time.perf_counter()
     lamps = _lamps(args.lamps)
     model = load_model()
@@ -321,7 +405,7 @@ def main(argv: list[str] | None = None) -> int:
     real_note = real_renderings_note(learned)
     results = []
     with tempfile.TemporaryDirectory() as tmp:
-        photographer = Photographer(Path(tmp), args.size)
+        photographer = Photographer(Path(tmp), args.size, args.metering, args.upsample)
         for setting in [s for s in SETTINGS if s.key in args.settings.split(",")]:
             plan: list[tuple[str, str, str | Renderer | None, tuple[str, ...], str, str]] = [
                 ("RAW (DNG), own profile", "raw", None, (), setting.own, "")]
@@ -337,16 +421,17 @@ def main(argv: list[str] | None = None) -> int:
                 results.append(out)
                 if out.get("n", 0):
                     print(f"{setting.key} | {label}: MAE {out['mae_400_700']:.4f} Δu'v' {out['delta_uv_prime']:.4f} "
-                          f"conf {out['confidence']:.2f} refused {out['refused']} cal {out['calibration']} "
+                          f"conf {out['confidence']:.2f} EV {out.get('compensation_ev')} warned "
+                          f"{out['warned_exposure']:.2f} refused {out['refused']} cal {out['calibration']} "
                           f"[{time.perf_counter() - t1:.0f} s]", flush=True)
                 else:
                     print(f"{setting.key} | {label}: refused ({out.get('refused_calibration', 'every photo')})",
                           flush=True)
-    text = report(results, len(lamps), args.size, time.perf_counter() - t0, real_note)
+    text = report(results, len(lamps), args.size, time.perf_counter() - t0, real_note, args.metering, args.upsample)
     if args.write:
-        write_section(text, REPO / "bench" / "camera_files.md")
-        (REPO / "bench" / "camera_renderings.json").write_text(json.dumps(results, indent=1, default=str),
-                                                               encoding="utf-8")
+        write_section(text, REPO / "bench" / "camera_files.md", args.metering, args.upsample)
+        (REPO / "bench" / _section(args.metering, args.upsample)[2]).write_text(
+            json.dumps(results, indent=1, default=str), encoding="utf-8")
         print("wrote bench/camera_files.md (its camera_renderings section)")
     else:
         print(text)

@@ -6,8 +6,7 @@ the rendering is metered on its own output, so nothing clips at the top. A calib
 and tested on them learns that family. The renderings here are written from what cameras and
 raw converters do, without that code, and are held out of every fit and prior:
 
-* ``ordinary``: the sensor exposed as a camera meters it (the raw peak at 80 % of full scale),
-  a fixed daylight white balance (D55, green gain 1, so red and blue gains > 1 push warm or
+* ``ordinary``: a fixed daylight white balance (D55, green gain 1, so red and blue gains > 1 push warm or
   cool colours past full scale), a 3×3 camera→sRGB matrix fitted to the CIE 1931 observer's
   sRGB colour-matching functions *clipped at the sRGB gamut* (what a profile fitted on
   spectral colours that the display cannot show does), per-channel clipping, the sRGB curve
@@ -24,7 +23,8 @@ raw converters do, without that code, and are held out of every fit and prior:
   :func:`libraw_render`.
 
 Each function maps a (H, W, 3) camera-native linear image (full scale 1) to the file-linear
-image that :func:`training.simulation.photo.write_photo` writes as 8-bit sRGB codes.
+image that :func:`training.simulation.photo.write_photo` writes as 8-bit sRGB codes; the exposure
+is the caller's (``camera_renderings``: as README's capture step 5 says, or the raw peak at 80 %).
 """
 
 from __future__ import annotations
