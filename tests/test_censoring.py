@@ -191,3 +191,30 @@ def test_a_photo_processed_beyond_the_family_gets_a_calibration_that_says_so(tmp
         assert np.isfinite(cal.metadata["processing_rms_codes"]) and cal.metadata["processing_rms_codes"] > 0
     assert flagged["phone"] is not None and "shoot RAW" in flagged["phone"]
     assert flagged["ordinary"] is None
+
+
+@pytest.mark.slow  # two CIE A calibrations and two estimates of 128 px JPEGs (~25 s)
+def test_a_calibrated_jpeg_with_a_blinking_rainbow_says_it_is_over_exposed(tmp_path):
+    """A calibrated in-camera file keeps its full-scale channels as bounds, so the loader's
+    saturation mask no longer counted them: an ordinary rendering with 40 % of its rainbow at
+    code 255 read at confidence 1.00 with no word of it. Now it says so and loses confidence
+    (not below half: the bounds still carry information); the same capture exposed as README's
+    step 5 says (no blinking highlights) does not."""
+    from cd_spectra_addon.core.inverse.estimate import estimate_image
+    from cd_spectra_addon.core.spectrum.model import load_model
+    from training.evaluation.camera_renderings import SETTINGS, Photographer, calibrate_like_the_cli
+
+    model = load_model()
+    dslr = SETTINGS[0]
+    read = {}
+    for metering in ("raw", "rendering"):
+        (tmp_path / metering).mkdir()
+        shooter = Photographer(tmp_path / metering, 128, metering)
+        shot = shooter.jpeg(known_lamp_spd("incandescent"), CAMERA, dslr.exif, "ordinary", 99, "cal")
+        cal, _ = calibrate_like_the_cli([shot], ("incandescent",), "auto", model, shooter.preset)
+        photo = shooter.jpeg(known_lamp_spd("incandescent"), CAMERA, dslr.exif, "ordinary", 5, "photo")
+        read[metering] = estimate_image(photo, preset=shooter.preset, calibration=cal, model=model)
+    over = read["raw"]
+    assert any("has a channel at full scale" in w for w in over.warnings), over.warnings
+    assert 0.5 <= over.confidence < 0.95 and over.extra["checks"]["full_scale_bins"] > 0.05
+    assert not any("over-exposed" in w for w in read["rendering"].warnings), read["rendering"].warnings

@@ -73,6 +73,12 @@ POSE_SPAN_DEG = 4.0
 BLUR_OK_NM = 11.0
 # An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
 PROCESSED_CONFIDENCE = 0.5
+# A calibrated in-camera file's bins at full scale (share of 400–700 nm with > 5 % of their
+# weight at code ≥ HIGH_CODE) beyond which it is told it is over-exposed. Chosen on the
+# calibration's own family (typical rendering, CIE A calibration, 6 LSPDD lamps, scratch): as
+# the camera meters it 0.016–0.049 of the bins (MAE 0.022), 1/3 stop brighter 0.033–0.18 (0.026),
+# 2× 0.08–0.46 (0.031), 4× 0.21–0.67 (0.046).
+FULL_SCALE_WARN = 0.1
 # An offset this large (share of full scale) is worth telling: it costs 8-bit levels and may
 # not be uniform.
 AMBIENT_WARN = 0.01
@@ -160,6 +166,12 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     clipped = readout.saturated_fraction if image is None or not np.any(image.invalid) else \
         _bin_share(readout, image.saturated)
     sat_core = float(np.mean(clipped[core] > 0.05))
+    # A calibrated in-camera file's readout keeps its full-scale pixels as bounds (the loader's
+    # saturation mask is not applied there), so its over-exposure is counted on the file itself:
+    # the rainbow's pixels with a channel at full scale (code ≥ HIGH_CODE).
+    bounds = analysis.posed.clipped
+    bound_core = 0.0 if bounds is None else \
+        float(np.mean(_bin_share(readout, np.any(bounds[1], axis=-1))[core] > 0.05))
     # Re-render the readout from the estimate and compare with the photo.
     valid = readout.valid
     meas = readout.values
@@ -196,6 +208,13 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     if sat_core > 0.02:
         warnings.append(f"over-exposed: {100 * sat_core:.0f}% of the visible rainbow is clipped — use a shorter exposure")
         score *= max(0.2, 1.0 - 2.0 * sat_core)
+    elif bound_core > FULL_SCALE_WARN:
+        # Read as bounds, not lost; but a camera that clips before its matrix (LibRaw, after its
+        # white balance) spoils the other channels too, which a bound cannot tell.
+        warnings.append(f"over-exposed: {100 * bound_core:.0f}% of the visible rainbow has a channel at full scale "
+                        "(blinking highlights), read only as bounds — use a shorter exposure")
+        score *= max(0.5, 1.0 - bound_core)
+    stats["full_scale_bins"] = bound_core
     if coverage_check and coverage < 0.95:
         where = coverage_advice(preset, analysis.scene)
         warnings.append(f"only {100 * coverage:.0f}% of 400–700 nm is visible on the disc — {where}")
