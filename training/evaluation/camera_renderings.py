@@ -22,7 +22,7 @@ Two cameras:
 
 Each JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the
 coloured part: exposure compensation in 1/3 EV steps down from the raw-peak metering until at
-most :data:`BLINK_SHARE` of the disc's tracks show a channel at code 255 — or, with ``--metering
+most :data:`BLINK_SHARE` of the disc's tracks show a channel at a clipped code (≥ 250) — or, with ``--metering
 raw`` (its own section), at the raw-peak metering with the highlight alert ignored: the
 renderings then write 10–60 % of the rainbow at code 255, and LibRaw clips raw channels after
 its white balance, before its matrix, which spoils the other channels of those pixels too.
@@ -57,7 +57,7 @@ from cd_spectra_addon.core.calibration.calibration import (CROSS_CHECK_LIMIT, EX
 from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.calibration_shot import Shot, calibrate_shots
 from cd_spectra_addon.core.inverse.estimate import estimate_image
-from cd_spectra_addon.core.photo.images import LinearImage
+from cd_spectra_addon.core.photo.images import SATURATION_8BIT, LinearImage
 from cd_spectra_addon.core.photo.raw_files import is_raw_path
 from cd_spectra_addon.core.photo.srgb import srgb_encode
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, CameraProfile, load_camera
@@ -81,8 +81,10 @@ PHONE = str(EXTERNAL_DIR / "Nokia_N900.json")
 # README's capture step 5, "expose for the rainbow: no clipped (blinking) highlights in the coloured
 # part", as a person does it with a camera's highlight alert: exposure compensation in 1/3 EV steps
 # down from the raw-peak metering until at most BLINK_SHARE of the disc's tracks show a channel at
-# code 255 (the own family's rule: the brightest 0.1 % of the metered area at 90 %).
-BLINK_CODE = 254.5
+# a code the product's loader counts as clipped (≥ 250: alerts blink at 250–255; a camera whose
+# curve tops out below 255, like the learned real ones, clips there). The own family's rule is
+# alike: the brightest 0.1 % of the metered area at 90 %.
+BLINK_CODE = SATURATION_8BIT - 0.5
 BLINK_SHARE = 0.001
 STOP = 2.0 ** (-1.0 / 3.0)
 MAX_STOPS = 15  # −5 EV at most
@@ -155,7 +157,7 @@ class Photographer:
         return render(self.shooter.native(spd, camera, seed, self.upsample, exposure=exposure), camera)
 
     def blinking(self, image: NDArray[np.float64]) -> float:
-        """The share of the disc's tracks where a channel of ``image`` is written as code 255."""
+        """The share of the disc's tracks where a channel of ``image`` is written at a clipped code (BLINK_CODE)."""
         meter = self.shooter.meter
         factor = image.shape[0] // meter.shape[0]
         tracks = photo.upsample(meter.astype(float), factor) > 0.5
@@ -252,7 +254,8 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
     if metering == "rendering":
         exposed = ("Every JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the "
                    "coloured part: from the raw peak at 80 % of full scale, exposure compensation in 1/3 EV steps "
-                   f"until at most {100 * BLINK_SHARE:.1f} % of the disc's tracks show a channel at code 255 (column "
+                   f"until at most {100 * BLINK_SHARE:.1f} % of the disc's tracks show a channel at code ≥ "
+                   f"{BLINK_CODE + 0.5:.0f}, what the loader counts as clipped (column "
                    "*exposure*: the mean compensation). Column *warned*: the photos whose estimate says they are "
                    "over-exposed.")
     else:
