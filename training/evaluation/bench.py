@@ -223,7 +223,31 @@ def speed(quick: bool) -> dict[str, Any]:
         model.predict(x)
     out["inference_ms"] = 1e3 * (time.perf_counter() - t0) / n
     out["prior_100k_s"] = _prior_100k_s(quick)
+    out["plan_ms"] = _plan_ms(repeats)
     out["enable_ms"], out["register_ms"] = _enable_ms()
+    return out
+
+
+# Equipment a planner is asked about: a DSLR with a desk lamp, a phone with a lamp across the room.
+PLAN_EQUIPMENT = {"DSLR 24 mm, 3 mm lamp at 300 mm": dict(lamp_distance_mm=300.0, lamp_size_mm=3.0, focal_mm=24.0),
+                  "phone 26 mm, 10 mm lamp at 2 m": dict(lamp_distance_mm=2000.0, lamp_size_mm=10.0, focal_mm=26.0,
+                                                         phone=True)}
+
+
+def _plan_ms(repeats: int) -> dict[str, float]:
+    """Median ms to plan a capture (`plan`, the panel's Plan button) for each of PLAN_EQUIPMENT."""
+    from cd_spectra_addon.core.planning.planner import Equipment, plan_capture
+
+    out = {}
+    for label, kwargs in PLAN_EQUIPMENT.items():
+        equipment = Equipment(**kwargs)
+        plan_capture(equipment)
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            plan_capture(equipment)
+            times.append((time.perf_counter() - t0) * 1e3)
+        out[label] = float(np.median(times))
     return out
 
 
@@ -306,6 +330,8 @@ def main(argv: list[str] | None = None) -> int:
               "the estimate's fixed cost comes on top of a whole decode.",
               f"- Model inference: {sp['inference_ms']:.2f} ms per photo (goal ≤ 2 ms).",
               f"- Training prior: 100 000 synthetic SPDs in {sp['prior_100k_s']:.1f} s (goal ≤ 20 s).",
+              "- Planning a capture (`plan`, the panel's Plan button): " + "; ".join(
+                  f"{label} {ms:.0f} ms" for label, ms in sp["plan_ms"].items()) + ".",
               "- Enabling the add-on (import + register in headless Blender): "
               + (f"{enable:.1f} ms (goal ≤ 50 ms)" if enable is not None else "not measured (bpy unavailable)")
               + (f"; register() alone again after unregister() {sp['register_ms']:.1f} ms (goal ≤ 50 ms)."
