@@ -22,10 +22,11 @@ Two cameras:
 
 Each JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the
 coloured part: exposure compensation in 1/3 EV steps down from the raw-peak metering until at
-most :data:`BLINK_SHARE` of the disc's tracks show a channel at a clipped code (≥ 250) — or, with ``--metering
-raw`` (its own section), at the raw-peak metering with the highlight alert ignored: the
-renderings then write 10–60 % of the rainbow at code 255, and LibRaw clips raw channels after
-its white balance, before its matrix, which spoils the other channels of those pixels too.
+most :data:`BLINK_SHARE` of the disc's tracks show a channel at a clipped code (≥ 250) — or,
+with ``--metering raw`` (its own section), at the raw-peak metering with the highlight alert
+ignored: the renderings then write 10–60 % of the rainbow at code 255, and LibRaw clips raw
+channels after its white balance, before its matrix, which spoils the other channels of those
+pixels too. ``--upsample N``: photos N× the loaded size per side (its own section).
 
 Real cameras' own renderings, learned from a RAW file and the JPEG its camera wrote
 (:mod:`.learned_rendering`), are applied to the same captures when ``--real-pairs`` names a
@@ -159,8 +160,7 @@ class Photographer:
     def blinking(self, image: NDArray[np.float64]) -> float:
         """The share of the disc's tracks where a channel of ``image`` is written at a clipped code (BLINK_CODE)."""
         meter = self.shooter.meter
-        factor = image.shape[0] // meter.shape[0]
-        tracks = photo.upsample(meter.astype(float), factor) > 0.5
+        tracks = photo.upsample(meter, image.shape[0] // meter.shape[0]).astype(bool)
         return float(np.mean(np.any(srgb_encode(np.clip(image, 0.0, 1.0)) * 255.0 >= BLINK_CODE, axis=-1)[tracks]))
 
     def jpeg(self, spd: NDArray[np.float64], camera: CameraProfile, exif_name: str, rendering: str | Renderer,
@@ -262,12 +262,10 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
         exposed = ("Every JPEG is exposed for the raw instead (its peak at 80 % of full scale), the highlight alert "
                    "ignored: warm or saturated colours pass code 255 in 10–60 % of the rainbow's pixels. Column "
                    "*warned*: the photos whose estimate says they are over-exposed.")
-    if upsample == UPSAMPLE:
-        title = ("## In-camera JPEGs from renderings the calibration never modelled (issue 20)" if metering == "rendering"
-                 else "## The same, over-exposed: the blinking highlights ignored (issue 20)")
-    else:
-        title = (f"## The same from photos {upsample}× the loaded size per side (issue 20)" if metering == "rendering"
-                 else f"## The same, over-exposed, from photos {upsample}× the loaded size per side (issue 20)")
+    variant = ("" if metering == "rendering" else ", over-exposed: the blinking highlights ignored") + (
+        "" if upsample == UPSAMPLE else f", from photos {upsample}× the loaded size per side")
+    title = "## " + ("The same" + variant if variant else "In-camera JPEGs from renderings the calibration never "
+                     "modelled") + " (issue 20)"
     flags = ("" if metering == "rendering" else " --metering raw") + ("" if upsample == UPSAMPLE else
                                                                        f" --upsample {upsample}")
     lines = [start, title, "", exposed, "",
