@@ -33,8 +33,8 @@ def test_refused_photos_and_a_refused_calibration_are_rows_that_say_so(tmp_path)
 def test_jpegs_are_exposed_as_the_readme_says_in_third_stops(tmp_path):
     """README's step 5 ("no clipped (blinking) highlights in the coloured part") as the held-out
     renderings' exposure: compensation in 1/3 EV steps until at most BLINK_SHARE of the tracks
-    show a channel at code 255; metered on the raw instead, a warm lamp through daylight white
-    balance blinks over much of the rainbow."""
+    show a channel at a clipped code (≥ 250, the loader's); metered on the raw instead, a warm
+    lamp through daylight white balance blinks over much of the rainbow."""
     from training.evaluation.camera_renderings import BLINK_SHARE, STOP
     from training.evaluation.renderings import ordinary
 
@@ -52,6 +52,6 @@ def test_jpegs_are_exposed_as_the_readme_says_in_third_stops(tmp_path):
     (raw_ev, raw_blink), (ev, blink) = blinks["raw"], blinks["rendering"]
     assert raw_ev == 0.0 and raw_blink > 10 * BLINK_SHARE
     assert ev < 0 and abs(3 * ev - round(3 * ev)) < 1e-9 and blink <= BLINK_SHARE
-    # one third-stop less would still blink: the brightest exposure that does not
+    # a third of a stop brighter would still blink: it is the brightest exposure that does not
     brighter = ph.shooter.native(lamp, camera, 3, UPSAMPLE, exposure=STOP ** (round(-3 * ev) - 1))
     assert ph.blinking(ordinary(brighter, camera)) > BLINK_SHARE
