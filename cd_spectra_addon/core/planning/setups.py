@@ -663,7 +663,6 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
     blocked |= ((lamp - points) @ n <= 0) | ((cam - points) @ n <= 0)
 
     sides = []
-    visible_parts = []
     for side in (1, -1):
         data = _on_data(s, disc, side)
         lam_side = lam[data]
@@ -672,10 +671,7 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
                                   (streak.azimuth_deg(side * disc.grating_r_min_mm),
                                    streak.azimuth_deg(side * disc.grating_r_max_mm)),
                                   _visible_orders(lam_side, disc.max_order)))
-        usable = lam[data & ~blocked]
-        if usable.size:
-            visible_parts.append(usable)
-    covered, covers = _coverage(visible_parts, lam, s, data_blocked=blocked, disc=disc)
+    covered, covers = _coverage(lam, s, data_blocked=blocked, disc=disc)
     lo_nm, hi_nm = VISIBLE_NM
     read_side = next((c.side for c in sides if c.lambda_range_nm[0] <= lo_nm and c.lambda_range_nm[1] >= hi_nm
                       and c.blocked_fraction == 0.0), 0)
@@ -728,8 +724,8 @@ def analyse(setup: SetUp, report_nm: tuple[float, ...] = REPORT_NM) -> SetUpRepo
     )
 
 
-def _coverage(parts: list[NDArray[np.float64]], lam: NDArray[np.float64], s: NDArray[np.float64],
-              data_blocked: NDArray[np.bool_], disc: Any) -> tuple[tuple[float, float] | None, bool]:
+def _coverage(lam: NDArray[np.float64], s: NDArray[np.float64], data_blocked: NDArray[np.bool_],
+              disc: Any) -> tuple[tuple[float, float] | None, bool]:
     """The contiguous stretch of 400–700 nm (1 nm steps) shown somewhere on the unblocked data
     area, allowing the two sides of the disc to share it."""
     joined = np.zeros(s.size - 1, dtype=bool)
