@@ -26,7 +26,6 @@ from cd_spectra_addon.core.pose.rim_ellipse import (
 )
 from cd_spectra_addon.core.scene import relative_pose
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
@@ -72,9 +71,7 @@ def _photo(scene: Scene, surround: np.ndarray | None, disc_level: float = 0.012,
     """The rendered rainbow, exposed, on a dark disc inside ``surround`` (None: black), noisy."""
     cube = render_cube(scene, supersample=1)
     image, _ = photo.expose(photo.linear_photo(cube, _lamp(), CAMERA), 1.0, photo.track_mask(scene))
-    disc = np.zeros(SIZE * SIZE, bool)
-    disc[pixel_diffraction(scene).index] = True
-    disc = disc.reshape(SIZE, SIZE)
+    disc = photo.disc_mask(scene)
     base = np.zeros((SIZE, SIZE, 3)) if surround is None else surround.copy()
     base[disc] = disc_level * np.array([1.0, 0.95, 0.9])
     return np.minimum(photo.add_noise(image + base, 0.01, np.random.default_rng(seed)), 1.0)
@@ -136,9 +133,7 @@ def test_a_lit_disc_is_still_found_by_its_mask(rendered):
     """Room light on the disc, a dark surround: the moments' answer, flagged lit."""
     scene, _, rainbow_only = rendered
     lit = rainbow_only.copy()
-    disc = np.zeros(SIZE * SIZE, bool)
-    disc[pixel_diffraction(scene).index] = True
-    lit[disc.reshape(SIZE, SIZE)] += 0.05
+    lit[photo.disc_mask(scene)] += 0.05
     found = disc_ellipse(lit)
     assert found is not None and found.lit
     truth, _, _ = _truth(scene)

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from cd_spectra_addon.core.spectra import colour as colour_core
 from cd_spectra_addon.core.inverse.load import load_for_estimate
@@ -64,6 +65,12 @@ DISC_SPAN_PX = 800  # the disc's longest extent in the centred crop
 AMBIENT_TINT = np.array([1.0, 0.9, 0.75])  # warm room light, as a share of full scale per channel
 SETUPS = (*SETUP_PRESETS, REFERENCE_PRESET)
 RANDOM_SEED = 10
+# The lit-table row: room light lights the table (ambient × AMBIENT_TINT) and the disc, a mirror
+# with a faint diffuse base, at this share of it — the table also shows through the disc's hole.
+# The disc's outline then shows, as on a real table; the other row keeps a disc on a surface as
+# dark as it (a black cloth), where no outline shows.
+DISC_ON_TABLE = (0.1, 0.5)
+TABLE_SEED = 11
 
 __all__ = ["Case", "cases_for", "crop_preset", "main"]
 
@@ -74,7 +81,9 @@ class Case:
     pose: Pose = Pose()
     ambient: float = 0.0  # share of full scale added to every pixel (× AMBIENT_TINT)
     lobe_sigma: float | None = None  # the real lamp's size (default: the preset's)
-    poses: tuple[tuple[Pose, float], ...] = field(default=())  # combined: (pose, ambient) per photo, cycled
+    # combined: (pose, ambient, disc share) per photo, cycled; the share: the disc's level as a share
+    # of the table's around it (None: room light the same on disc and table, no outline)
+    poses: tuple[tuple[Pose, float, float | None], ...] = field(default=())
 
 
 def crop_preset(name: str) -> tuple[Preset, float]:
@@ -117,6 +126,8 @@ def _combined(preset: Preset, count: int, rng: np.random.Generator) -> tuple[tup
 
 def cases_for(preset: Preset, combined_poses: int) -> list[Case]:
     rng = np.random.default_rng(RANDOM_SEED)
+    combined = _combined(preset, combined_poses, rng)
+    shares = np.random.default_rng(TABLE_SEED).uniform(*DISC_ON_TABLE, len(combined))
     return [
         Case("nominal"),
         Case("lamp +5 mm (x)", Pose(light_offset_mm=(5.0, 0.0))),
@@ -131,7 +142,8 @@ def cases_for(preset: Preset, combined_poses: int) -> list[Case]:
         Case("tilt 3° (about y)", Pose(tilt_deg=(0.0, 3.0))),
         *[Case(f"ambient {a} %", ambient=a / 100) for a in (1, 3, 5)],
         *[Case(f"lamp size σ {s}", lobe_sigma=s) for s in (0.001, 0.01)],
-        Case("combined (random per photo)", poses=_combined(preset, combined_poses, rng)),
+        Case("combined (random per photo)", poses=tuple((p, a, None) for p, a in combined)),
+        Case("combined, on a lit table", poses=tuple((p, a, float(k)) for (p, a), k in zip(combined, shares))),
     ]
 
 
@@ -177,28 +189,40 @@ def _pose_report(fit: PoseFit, truth: Scene) -> dict:
     return {"dlambda_nm": dlam, "pose_error": [f - t for f, t in zip(fitted, true)], "pose_true": list(true)}
 
 
+def write_capture(path: Path, scene: Scene, cube: NDArray[np.floating], spd: NDArray[np.floating], ambient: float,
+                  disc_share: float | None, seed: int) -> None:
+    """The JPEG of one capture as this evaluation writes it (``cube``: the scene's render): exposed
+    on the tracks, room light (``ambient`` of full scale) on the table and ``disc_share`` of it on
+    the disc (None: the same on both), UPSAMPLE× its pixels, NOISE, EXIF of the camera."""
+    cam = load_camera(DEFAULT_CAMERA)
+    image, _ = photo.expose(photo.linear_photo(cube, spd, cam), 1.0, photo.track_mask(scene))
+    room = np.full(image.shape[:2], float(ambient))
+    if disc_share is not None:
+        room[photo.disc_mask(scene)] *= disc_share
+    image = photo.upsample(image + room[..., None] * AMBIENT_TINT, UPSAMPLE)
+    image = np.minimum(photo.add_noise(image, NOISE, np.random.default_rng(seed)), 1.0)
+    c = scene.preset.camera
+    photo.write_photo(path, image, "jpg", photo.exif_for(c.focal_length_mm, c.sensor_width_mm,
+                                                          c.image_size_px[0] * UPSAMPLE, DEFAULT_CAMERA))
+
+
 def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, truth: bool = True) -> dict:
     """Estimates of every lamp for one row; returns per-photo metrics and refusals. With ``truth``
     each photo is estimated at its true pose too (what the pose fit costs, simulator only)."""
-    captures = case.poses or ((case.pose, case.ambient),)
+    captures = case.poses or ((case.pose, case.ambient, None),)
     sized = preset if case.lobe_sigma is None else replace(preset, light=replace(preset.light,
                                                                                  lobe_sigma=case.lobe_sigma))
     cam = load_camera(DEFAULT_CAMERA)
-    c = preset.camera
-    exif = photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0] * UPSAMPLE, DEFAULT_CAMERA)
     rows, refusals, seconds = [], [], []
     renders: dict[int, tuple] = {}
     for i, lamp in enumerate(lamps):
         k = i % len(captures)
         if k not in renders:
             scene = Scene(sized, captures[k][0])
-            renders[k] = (scene, render_cube(scene, supersample=SUPERSAMPLE), photo.track_mask(scene))
-        scene, cube, meter = renders[k]
-        image, _ = photo.expose(photo.linear_photo(cube, lamp.spd, cam), 1.0, meter)
-        image = photo.upsample(image + captures[k][1] * AMBIENT_TINT, UPSAMPLE)
-        image = np.minimum(photo.add_noise(image, NOISE, np.random.default_rng(1000 + i)), 1.0)
+            renders[k] = (scene, render_cube(scene, supersample=SUPERSAMPLE))
+        scene, cube = renders[k]
         path = tmp / f"p{i}.jpg"
-        photo.write_photo(path, image, "jpg", exif)
+        write_capture(path, scene, cube, lamp.spd, *captures[k][1:], seed=1000 + i)
         # the product's loader: the whole photo here (disc 800 px in its 1024 px preview), reduced to
         # 512 px for a near-axis set-up (inverse/load.py); the truth is then the capture at that size
         loaded = load_for_estimate(path, preset)
@@ -315,6 +339,10 @@ NOTES = """## What the rows mean, and what the evaluation cannot tell apart
   lamp turned together about the disc centre are the same photo (the fit reports both as a tilt).
   Room light and the disc's diffuse base are one offset. A bigger lamp and a blurrier lens both
   widen the lobe (σ).
+- **The disc's outline**: on a lit table (*combined, on a lit table*) it shows and pins the disc's
+  pose, which the rainbow alone leaves to a near-symmetry on the tripod (a disc turned ~15° about
+  its glint, camera and lamp angles smaller together); on a surface as dark as the disc (every
+  other row) no outline shows.
 - **What this evaluation shows the fit does and does not separate**: read the *fit − truth*
   column row by row (near 0 everywhere: the error was recognised for what it is). Along an oblique streak every pixel's λ₁ is set by its ray
   and the lamp's direction, not by where the disc centre is, so the disc centre along the streak
@@ -343,7 +371,10 @@ def report(per_setup: list[tuple[str, float, list[dict]]], n_lamps: int, combine
         "model and the set-up's preset, no pose hints. **Simulator only.**",
         f"Combined: {combined} random captures per set-up (photos cycle through them), within the issue's ranges "
         "(near-axis: lamp 6–15 mm from the lens, camera ±4 mm, tilt ≤ 3°, ambient ≤ 3 %; oblique: lamp ±5 mm "
-        "and ±3°, camera ±4 mm and ±3°, tilt ≤ 3°, ambient ≤ 3 %).",
+        "and ±3°, camera ±4 mm and ±3°, tilt ≤ 3°, ambient ≤ 3 %). *Combined, on a lit table*: the same "
+        "captures with the room light on the table around the disc and seen through its hole, the disc at "
+        f"{DISC_ON_TABLE[0]:g}–{DISC_ON_TABLE[1]:g} of the table's level: its outline shows; in the other row "
+        "room light is the same on disc and surround (a black cloth), and no outline shows.",
         "",
     ]
     every = []

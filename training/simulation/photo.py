@@ -32,7 +32,7 @@ AUTO_EXPOSURE_LEVEL = 0.8
 JPEG_QUALITY = 90
 READ_NOISE_FRACTION = 0.2  # read noise std as a fraction of --noise
 
-__all__ = ["FORMATS", "linear_photo", "track_mask", "expose", "upsample", "add_noise", "synthesize", "write_photo", "exif_for"]
+__all__ = ["FORMATS", "linear_photo", "track_mask", "disc_mask", "expose", "upsample", "add_noise", "synthesize", "write_photo", "exif_for"]
 
 
 def linear_photo(cube: NDArray[np.floating], spd: NDArray[np.floating], camera: CameraProfile) -> NDArray[np.float64]:
@@ -49,6 +49,15 @@ def track_mask(scene: Scene) -> NDArray[np.bool_]:
     px = pixel_diffraction(scene)
     mask = np.zeros(width * height, dtype=bool)
     mask[px.index[px.on_tracks]] = True
+    return mask.reshape(height, width)
+
+
+def disc_mask(scene: Scene) -> NDArray[np.bool_]:
+    """Pixels whose centre sees the disc between its hole and its rim: what room light on a table
+    leaves darker (a mirror with a faint diffuse base), so that its outline shows."""
+    width, height = scene.preset.camera.image_size_px
+    mask = np.zeros(width * height, dtype=bool)
+    mask[pixel_diffraction(scene).index] = True
     return mask.reshape(height, width)
 
 
