@@ -8,7 +8,7 @@ import pytest
 
 from cd_spectra_addon.core.pose import starts
 from cd_spectra_addon.core.pose.fit import fit_pose
-from cd_spectra_addon.core.pose.rim_ellipse import disc_ellipse
+from cd_spectra_addon.core.pose.rim_ellipse import disc_ellipse, project_circle
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
 from cd_spectra_addon.core.scene.kernel import project
 from cd_spectra_addon.core.scene.relative_pose import mirror_point, relative_pose
@@ -36,6 +36,9 @@ def test_every_strategy_names_its_starts_and_gives_finite_captures(name):
     scene, ctx, _ = _context(name, Pose(light_offset_mm=(4.0, 0.0), tilt_deg=(1.0, 0.0)))
     ctx.found.extend(starts.STRATEGIES["preset"](ctx))
     ctx.cost = lambda rel: float(np.sum(rel.disc_centre_mm ** 2) * 0.0 + 1.0)  # a flat cost: any start is a start
+    ctx.fresh_cost = ctx.cost
+    truth = relative_pose(scene)  # the outline a lit table would show, for the strategies that read it
+    ctx.outline = project_circle(truth.disc_centre_mm, truth.disc_normal, 60.0, ctx.focal_px, ctx.size)
     for key, strategy in starts.STRATEGIES.items():
         for s in strategy(ctx):
             assert s.strategy.split(" ")[0] == key, (key, s.strategy)

@@ -11,11 +11,13 @@ The preset is only a start. Coarse to fine:
    along a single streak); the best few get Levenberg–Marquardt with the exact Jacobian. A
    coarse pixel averages a stretch of the lobe, so the lobe is widened there by the pixel's span.
 3. **Escalations**, only when no coarse fit explains the photo (:data:`GOOD_COST`): the glint's
-   line and the in-plane valley (:data:`.starts.ESCALATIONS`), scanned on the coarse cost.
+   line, the in-plane valley and, where the outline shows, the lamp sought about its poses
+   (:data:`.starts.ESCALATIONS`), scanned on the coarse cost.
 4. **Fine**: the best coarse fit (and the best from the glint's line, if any) refined on the
    photo's own pixels with a finer profile (3 nm) and the colour at 0.3 (the lamp's spectrum
    within the lobe biases the colour by ~1 nm; the self-consistency is unbiased).
 
+Where the disc's outline shows, every cost also holds the capture's rim to it (:class:`_OutlineRows`).
 The zero-order glint and clipped pixels are left out of every comparison. The result's residual
 and null residual are the binned consistency of :mod:`.result`, as the refusals expect.
 """
@@ -38,7 +40,7 @@ from ..scene.kernel import camera_rays, project
 from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
-from .rim_ellipse import Ellipse, disc_base, disc_ellipse
+from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
 from .self_consistency import ProfileGrid, RayGeometry, SelfConsistency, footprint_v_span
 from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
 
@@ -85,6 +87,12 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # first alone it did not: from the preset, LM can end in a neighbouring minimum that explains the
 # photo nearly as well — cd-default, camera moved 2 mm: twice the true cost, disc centre 2 px off —
 # and the rings' own centre, one tier on, starts in the right one.)
+# The escalations whose best fit is also refined on the fine level when it is not the best coarse
+# fit: the coarse cost (5 nm profile, colour at full weight) and the fine one disagree by more than
+# their fits differ — a tripod photo on a lit table whose coarse best (the outline's lamp grid) was
+# refined to a worse fine fit than the glint's line, itself 4 nm off, while the in-plane fit that
+# the outline's had displaced refined to 0.2 nm.
+FINALISTS = ("glint-line", "outline-lamp")
 TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lines"), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
 # ...nor LM from a start that leaves more than this unexplained: such a start is another capture
@@ -101,7 +109,28 @@ FAR_START_COST = 0.15
 # from the preset's capture (tried: its disc widened by 15 mm) cut off the disc of a photo whose
 # preset was 12° off (λ₁ 31 nm wrong against 0.7 nm), and each start's own region made the
 # starts' costs incomparable (tripod-oblique, disc tilted 3°: a capture 5° off, MAE 0.03 → 0.23).
+# A dark disc on a lit table (its outline found from edges) is judged between HUB_MARGIN × its
+# hole and DARK_OUTLINE_MARGIN × its outline: the table shows around it and through its hole, and
+# that light looked unexplained to every capture — a synthetic tripod photo with its table lit
+# left 0.43 of its energy unexplained at the true capture. (The tracks end at 58 of the rim's
+# 60 mm. Leaving out the whole hub, to the tracks' inner edge, lost the tripod's glint, which lies
+# near the centre and pins the capture: λ₁ 0.5 → 4.5 nm on one photo.)
 OUTLINE_MARGIN = 1.1
+DARK_OUTLINE_MARGIN = 0.98
+HUB_MARGIN = 1.2
+# ...and, on the coarse level, every capture must draw its rim where the outline is
+# (:class:`_OutlineRows`): the rainbow alone leaves near-symmetries the outline does not.
+# tripod-oblique's camera sits 2.5° from the lamp's mirror direction, and a disc turned ~15° about
+# the glint, camera and lamp angles shrinking together (13° → 7°), draws nearly the same rainbow;
+# its outline's ellipticity differs by 0.018. A found outline's measures
+# (:func:`.rim_ellipse.outline_mismatch`) were off by 0.001–0.002 (once 0.01) on the simulator's
+# lit tables, so a rim within OUTLINE_DEAD of the outline costs nothing (rows that pulled at those
+# errors moved λ₁ by 1–2 nm from where the rainbow alone put it); beyond, each measure costs
+# OUTLINE_COST per OUTLINE_TOLERANCE², and the family above (0.013 beyond) 0.01, three GOOD_COSTs.
+OUTLINE_DEAD = 0.005
+OUTLINE_TOLERANCE = 0.004
+OUTLINE_COST = 1e-3
+OUTLINE_STEP = 1e-3  # forward-difference step of the rows' Jacobian (parameter units)
 # A photo whose best fit leaves more than this of its energy unexplained is not one the
 # self-consistency reads alone (the simulator's photos: < 0.04 with every pose error of
 # bench/pose_errors.md); there the photo's thin lines are sought (:mod:`.lines`) and, where they
@@ -163,13 +192,17 @@ class _Level:
         return footprint_v_span(rows * f + (f - 1) / 2.0, cols * f + (f - 1) / 2.0, f, self.full_size,
                                 self.focal_px, rel)
 
-    def within(self, outline: Ellipse) -> NDArray[np.bool_]:
-        """Flat mask of the level's pixels inside the disc's outline (widened by OUTLINE_MARGIN)."""
+    def within(self, outline: Ellipse, hub_share: float) -> NDArray[np.bool_]:
+        """Flat mask of the level's pixels inside the disc's outline (times OUTLINE_MARGIN), or
+        where the disc is darker than its surround, between DARK_OUTLINE_MARGIN of it and its hub
+        (``hub_share``: the hole's radius over the rim's, times HUB_MARGIN)."""
         height, width = self.rgb.shape[:2]
         f = self.factor
         rows = np.repeat(np.arange(height) * f + (f - 1) / 2.0, width)
         cols = np.tile(np.arange(width) * f + (f - 1) / 2.0, height)
-        return outline.inside(rows, cols, OUTLINE_MARGIN)
+        if outline.lit:
+            return outline.inside(rows, cols, OUTLINE_MARGIN)
+        return outline.inside(rows, cols, DARK_OUTLINE_MARGIN) & ~outline.inside(rows, cols, hub_share)
 
     def sample(self, count: int, region: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
         """Flat indices of up to ``count`` pixels (sorted) of ``region`` (all where None): the
@@ -216,11 +249,38 @@ class _Sample:
         return self.spans
 
 
+class _OutlineRows:
+    """Residual rows that hold a capture's rim to the disc's outline in the photo, beyond what
+    an outline is found to (OUTLINE_DEAD, OUTLINE_COST)."""
+
+    def __init__(self, outline: Ellipse, radius_mm: float, focal_px: float, size: tuple[int, int]):
+        self.outline, self.radius_mm, self.focal_px, self.size = outline, radius_mm, focal_px, size
+        self.scale = math.sqrt(OUTLINE_COST) / OUTLINE_TOLERANCE
+
+    def __call__(self, rel: RelativePose) -> NDArray[np.float64]:
+        try:
+            drawn = project_circle(rel.disc_centre_mm, rel.disc_normal, self.radius_mm, self.focal_px, self.size)
+        except ValueError:  # a rim behind the camera or seen edge-on: as far off as a measure gets
+            return np.full(4, self.scale)
+        off = outline_mismatch(self.outline, drawn)
+        return self.scale * np.sign(off) * np.maximum(np.abs(off) - OUTLINE_DEAD, 0.0)
+
+    def jacobian(self, start: RelativePose, x: NDArray[np.float64], free: NDArray[np.int64]) -> NDArray[np.float64]:
+        at = self(apply_params(start, x))
+        out = np.empty((at.size, free.size))
+        for j, k in enumerate(free):
+            moved = x.copy()
+            moved[k] += OUTLINE_STEP
+            out[:, j] = (self(apply_params(start, moved)) - at) / OUTLINE_STEP
+        return out
+
+
 class _Problem:
-    """One stage's least-squares problem around a start: the photo's residuals, then the prior's."""
+    """One stage's least-squares problem around a start: the photo's residuals, the outline's
+    where one shows, then the prior's."""
 
     def __init__(self, sample: _Sample, start: RelativePose, preset: Preset, grid: ProfileGrid,
-                 geometry: RayGeometry | None = None):
+                 geometry: RayGeometry | None = None, outline: _OutlineRows | None = None):
         level = sample.level
         if geometry is None or not geometry.matches(start):
             geometry = RayGeometry.of(sample.rays, start)
@@ -229,6 +289,7 @@ class _Problem:
         kept = ~glint
         keep = np.flatnonzero(kept)
         self.start = start
+        self.outline = outline
         self.last_jacobian: NDArray[np.float64] | None = None  # of the last LM step, prior rows included
         self.objective = SelfConsistency(level.flat[sample.index[keep]], sample.rays[keep], preset.disc, grid,
                                          lambda x: apply_params(start, x), start.distance_mm / level.level_focal,
@@ -236,6 +297,8 @@ class _Problem:
 
     def cost_at(self, rel: RelativePose) -> float:
         r = self.objective.residuals_at(rel)
+        if self.outline is not None:
+            r = np.concatenate([r, self.outline(rel)])
         return float(r @ r)
 
     def fit(self, x0: NDArray[np.float64], iterations: int, tol: float, free: NDArray[np.int64] = FREE
@@ -253,7 +316,10 @@ class _Problem:
             return self.residuals_with_prior(full(y))
 
         def jacobian(y: NDArray[np.float64]) -> NDArray[np.float64]:
-            self.last_jacobian = np.concatenate([self.objective.jacobian(full(y), free), prior_rows])
+            rows = [self.objective.jacobian(full(y), free)]
+            if self.outline is not None:
+                rows.append(self.outline.jacobian(self.start, full(y), free))
+            self.last_jacobian = np.concatenate([*rows, prior_rows])
             return self.last_jacobian
 
         before = self.evaluations
@@ -263,8 +329,12 @@ class _Problem:
         return full(y), cost
 
     def residuals_with_prior(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The photo's residuals at the parameters ``x``, then the prior's (what LM minimises)."""
-        return np.concatenate([self.objective(x), PRIOR_WEIGHT * x / PRIOR_SCALE])
+        """The photo's residuals at the parameters ``x``, the outline's, then the prior's (what LM
+        minimises)."""
+        rows = [self.objective(x)]
+        if self.outline is not None:
+            rows.append(self.outline(apply_params(self.start, x)))
+        return np.concatenate([*rows, PRIOR_WEIGHT * x / PRIOR_SCALE])
 
     def cost_with_prior(self, x: NDArray[np.float64]) -> float:
         r = self.residuals_with_prior(x)
@@ -363,6 +433,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     fine = _Level.of(rgb, saturated, 1, focal_px)
     clock.lap("levels")
     ctx = StartContext(rgb, saturated, preset, float(focal_px), sensitivities, outline)
+    rim = None if outline is None else _OutlineRows(outline, preset.disc.rim_radius_mm, float(focal_px), size)
     levels = {"coarse": (coarse, COARSE_PIXELS), "fine": (fine, FINE_PIXELS)}
     samples: dict[str, _Sample] = {}
 
@@ -370,7 +441,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         """The level's pixel sample, inside the disc's outline where it shows (one for every start)."""
         if level not in samples:
             lvl, count = levels[level]
-            samples[level] = _Sample.of(lvl, count, None if outline is None else lvl.within(outline))
+            hub = HUB_MARGIN * preset.disc.hole_radius_mm / preset.disc.rim_radius_mm
+            samples[level] = _Sample.of(lvl, count, None if outline is None else lvl.within(outline, hub))
         return samples[level]
 
     grids: dict[tuple[float, float, float], ProfileGrid] = {}
@@ -383,7 +455,14 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         key = (*stage, blur)
         if key not in grids:
             grids[key] = ProfileGrid.with_camera(*GRID_NM, stage[0], sensitivities, blur, stage[1])
-        return _Problem(sample, start, preset, grids[key], geometry)
+        return _Problem(sample, start, preset, grids[key], geometry, rim if level == "coarse" else None)
+
+    def fresh_cost(rel: RelativePose) -> float:
+        """The coarse cost of ``rel`` judged on its own, as a start is scored (its glint left out)."""
+        p = problem(rel)
+        cost = p.cost_at(rel)
+        ctx.evaluations += p.evaluations
+        return cost
 
     def held_fit(p: _Problem, base: RelativePose, x: NDArray[np.float64], stage: int
                  ) -> tuple[NDArray[np.float64], float]:
@@ -416,6 +495,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         if escalating:  # escalations scan the coarse cost around the best fits so far
             judge = problem(fits[0].capture if fits else ctx.nominal())
             ctx.cost = judge.cost_at
+            ctx.fresh_cost = fresh_cost
             ctx.found = [Start(f.start.strategy, f.capture) for f in fits] or ctx.found
             if fits and fits[0].cost <= GOOD_COST:
                 names = [name for name in names if name == "in-plane"]
@@ -480,7 +560,11 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     # Where the photo's thin lines pin a capture and nothing explains the photo, the lines are the
     # answer whatever the self-consistency prefers: a lobe widened over the glow around them
     # explains more energy, and is wrong.
-    finalists = held[:1] if lines_rule(fits) else fits[:1] + [f for f in fits[1:] if f.start.strategy == "glint-line"][:1]
+    if lines_rule(fits):
+        finalists = held[:1]
+    else:
+        finalists = fits[:1] + [[f for f in fits[1:] if f.start.strategy == name][0] for name in FINALISTS
+                                if any(f.start.strategy == name for f in fits[1:])]
     finished = []
     for f in finalists:
         p = problem(f.capture, "fine", STAGES[1])

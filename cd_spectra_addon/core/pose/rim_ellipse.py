@@ -36,7 +36,7 @@ AREA_TOLERANCE = 0.15
 MIN_INSIDE = 0.9
 MIN_CONTRAST = 3.0  # disc level / surround level
 
-__all__ = ["Ellipse", "disc_ellipse", "disc_base", "circle_poses", "project_circle", "circle_distance_mm",
+__all__ = ["Ellipse", "disc_ellipse", "disc_base", "circle_poses", "project_circle", "outline_mismatch", "circle_distance_mm",
            "focal_px_from_outline"]
 
 
@@ -207,6 +207,21 @@ def project_circle(centre_mm: NDArray[np.floating], normal: NDArray[np.floating]
     width, height = image_size
     return Ellipse((height / 2.0 - y0 - 0.5, x0 + width / 2.0 - 0.5), major, minor, angle % math.pi,
                    image_size=image_size)
+
+
+def outline_mismatch(found: Ellipse, drawn: Ellipse) -> NDArray[np.float64]:
+    """How far a capture's rim (``drawn``, :func:`project_circle`) is from the outline the photo
+    shows (``found``): the centres' offset over the found major semi-axis (row, col), and the
+    ellipticities' difference, each a vector (1 − minor/major) at twice its major axis's angle —
+    continuous where a near-circle's axis angle is not. Free of the drawn disc's size: the fit
+    keeps the preset's distance, and a photo taken nearer is no other pose."""
+
+    def ellipticity(e: Ellipse) -> NDArray[np.float64]:
+        k = 1.0 - e.minor_px / e.major_px
+        return np.array([k * math.cos(2.0 * e.angle), k * math.sin(2.0 * e.angle)])
+
+    offset = (np.array(drawn.centre_px) - np.array(found.centre_px)) / found.major_px
+    return np.concatenate([offset, ellipticity(drawn) - ellipticity(found)])
 
 
 def _image_conic(ellipse: Ellipse, image_size: tuple[int, int]) -> NDArray[np.float64]:

@@ -24,6 +24,8 @@ name, so an evaluation can run or leave out any of them by name and a test can c
   the lamp exactly there, with the disc centre sought along the arcs' axis through it.
 - ``in-plane`` (escalation): the lamp and the disc turned about the normal of the plane of
   incidence, scanned along the valley the photo's colours leave there.
+- ``outline-lamp`` (escalation): where the disc's outline shows, each pose it allows with the
+  lamp's direction sought on a grid: the outline pins the disc, the rainbow then the lamp.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from __future__ import annotations
 import math
 from functools import cached_property
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,6 +70,15 @@ SWUNG_STARTS = 2  # the deepest teeth of that scan are followed along the tilt
 TILT_DEG = 6.0  # ...this far either way
 TILT_STEP_DEG = 0.5
 VALLEY_STEP_DEG = 0.25  # the swing sampled this far either side of the valley's line at each tilt
+# The lamp's direction about an outline's pose (outline-lamp): the preset's ±LAMP_GRID_DEG in
+# LAMP_GRID_STEP_DEG for a lamp LAMP_GRID_WIDEN× larger, then ±LAMP_GRID_STEP_DEG about the best in
+# LAMP_FINE_STEP_DEG at the lamp's own size. A synthetic tripod capture on a lit table had its lamp
+# 5.3° from where the preset puts it about the outline's disc; at the lamp's own size the 3° grid
+# stepped over its valley under a broad lamp (tests/test_outline_pose.py).
+LAMP_GRID_DEG = 12.0
+LAMP_GRID_STEP_DEG = 3.0
+LAMP_FINE_STEP_DEG = 1.0
+LAMP_GRID_WIDEN = 4.0
 
 
 @dataclass(frozen=True)
@@ -105,6 +116,7 @@ class StartContext:
     sensitivities: NDArray[np.float64] | None
     outline: Ellipse | None
     cost: Cost | None = None
+    fresh_cost: Cost | None = None  # the coarse cost of a capture judged on its own (its glint left out), as starts are scored
     evaluations: int = 0
     ridges: Ridges | None = None  # the photo's thin bright lines, found once (``lines``)
     found: list[Start] = field(default_factory=list)  # every start proposed so far
@@ -267,6 +279,39 @@ def outline_starts(ctx: StartContext) -> list[Start]:
         lamp = centre + turn @ (nominal.lamp_mm - nominal.disc_centre_mm)
         out.append(Start("outline", RelativePose(centre, normal, lamp, nominal.lobe_sigma, turn @ nominal.disc_x)))
     return out
+
+
+def outline_lamp_starts(ctx: StartContext) -> list[Start]:
+    """Each pose the disc's outline allows, with the lamp's direction (turned about the disc's
+    centre) where the cost is lowest on a grid. Why: from the outline's pose with the preset's
+    lamp, neither LM nor the colours' move finds the rainbow when the lamp stands a few degrees
+    off (tripod-oblique: a 3° move of the lamp turns the streak ~50° in the image)."""
+    if ctx.fresh_cost is None:
+        return []
+    cost = ctx.fresh_cost
+    out = []
+    for start in outline_starts(ctx):
+        wide = replace(start.pose, lobe_sigma=start.pose.lobe_sigma * LAMP_GRID_WIDEN)
+        turn = _lowest(cost, wide, np.zeros(2), LAMP_GRID_DEG, LAMP_GRID_STEP_DEG)
+        turn = _lowest(cost, start.pose, turn, LAMP_GRID_STEP_DEG, LAMP_FINE_STEP_DEG)
+        out.append(Start("outline-lamp", apply_params(start.pose, _lamp_turned(turn))))
+    return out
+
+
+def _lamp_turned(turn: NDArray[np.float64]) -> NDArray[np.float64]:
+    x = np.zeros(N_PARAMS)
+    x[4:6] = turn
+    return x
+
+
+def _lowest(cost: Cost, base: RelativePose, around: NDArray[np.float64], reach: float, step: float
+            ) -> NDArray[np.float64]:
+    """The lamp's turn (x[4:6] of apply_params) on a square grid about ``around`` where ``cost``
+    of ``base`` so turned is lowest."""
+    offsets = np.arange(-reach, reach + 1e-9, step)
+    grid = [around + (a, b) for a in offsets for b in offsets]
+    costs = [cost(apply_params(base, _lamp_turned(t))) for t in grid]
+    return grid[int(np.argmin(costs))]
 
 
 def colour_starts(ctx: StartContext) -> list[Start]:
@@ -475,6 +520,7 @@ STRATEGIES: dict[str, Callable[[StartContext], list[Start]]] = {
     "lines": line_starts,
     "glint-line": glint_line_starts,
     "in-plane": in_plane_starts,
+    "outline-lamp": outline_lamp_starts,
 }
 CHEAP = ("preset", "pattern", "outline", "rings", "glint", "colours", "lines")
-ESCALATIONS = ("glint-line", "in-plane")
+ESCALATIONS = ("glint-line", "in-plane", "outline-lamp")
