@@ -16,7 +16,7 @@ from cd_spectra_addon.core.inverse.stages import pose_photo
 from cd_spectra_addon.core.pose import fit as pose_fit
 from cd_spectra_addon.core.pose.rim_ellipse import Ellipse, outline_mismatch, project_circle
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
-from cd_spectra_addon.core.scene.relative_pose import apply_params, relative_pose
+from cd_spectra_addon.core.scene.relative_pose import apply_params, nominal_scene, relative_pose
 from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from training.evaluation import pose_errors
 from training.simulation.render_numpy import render_cube
@@ -84,6 +84,17 @@ def test_a_dark_disc_is_judged_without_the_table_around_it_or_through_its_hole()
     assert not mask[50, 50 + 40]  # the rim itself: the table's edge is an outline's error away
     lit = level.within(replace(outline, lit=True), 0.35).reshape(101, 101)
     assert lit[50, 50] and lit[50, 50 + 43]  # a lit disc on a dark surround: all of it, and a margin
+
+
+def test_an_outline_far_from_the_discs_size_is_not_the_disc():
+    """A greyscale photo's rings made edges that read as a dark disc 0.45 of the preset's size;
+    held to it, the fit refused a readable photo (tests/test_hostile_inputs.py, greyscale)."""
+    preset = load_preset("cd-default")
+    size, focal = (256, 256), 412.4
+    expected = focal * preset.disc.rim_radius_mm / relative_pose(nominal_scene(preset, size, focal)).distance_mm
+    for share, taken in ((1.0, True), (1.5, True), (0.7, True), (0.45, False), (1.7, False)):
+        outline = Ellipse((128.0, 128.0), share * expected, 0.98 * share * expected, 0.0, lit=False)
+        assert pose_fit.disc_sized(outline, preset, focal, size) is taken, share
 
 
 @pytest.mark.slow

@@ -37,7 +37,8 @@ from ..numerics.least_squares import levenberg_marquardt, valley_step
 from ..photo.resample import box_downsample, box_factor, brightest, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, project
-from ..scene.relative_pose import N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, scene_from_relative
+from ..scene.relative_pose import (N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, nominal_scene,
+                                   relative_pose, scene_from_relative)
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
 from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
@@ -407,6 +408,20 @@ class _Fitted:
         return apply_params(self.start.pose, self.params)
 
 
+# An outline is the disc's only where its size is within this factor of the preset's disc at its
+# distance: a greyscale photo's rings made edges that read as a dark disc 0.45 of the size the
+# preset gives (the edges' colour test had no colour to go by), and a fit held to it refused a
+# readable photo. A camera 1.6× nearer or farther than the preset says is a different set-up.
+OUTLINE_SIZE_FACTOR = 1.6
+
+
+def disc_sized(outline: Ellipse, preset: Preset, focal_px: float, size: tuple[int, int]) -> bool:
+    """Whether ``outline`` is about the size the preset's disc has in the photo (OUTLINE_SIZE_FACTOR)."""
+    nominal = relative_pose(nominal_scene(preset, size, focal_px))
+    expected = focal_px * preset.disc.rim_radius_mm / nominal.distance_mm
+    return 1.0 / OUTLINE_SIZE_FACTOR <= outline.major_px / expected <= OUTLINE_SIZE_FACTOR
+
+
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              sensitivities: NDArray[np.float64] | None = None, saturated: NDArray[np.bool_] | None = None,
              strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS,
@@ -424,6 +439,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     height, width, _ = rgb.shape
     size = (width, height)
     outline = disc_ellipse(rgb, saturated)
+    if outline is not None and not disc_sized(outline, preset, focal_px, size):
+        outline = None  # edges along the rainbow's own rings, not the disc's rim
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
         rgb = rgb - disc_base(rgb, outline, saturated)
