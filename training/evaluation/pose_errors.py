@@ -190,15 +190,19 @@ def _pose_report(fit: PoseFit, truth: Scene) -> dict:
 
 
 def write_capture(path: Path, scene: Scene, cube: NDArray[np.floating], spd: NDArray[np.floating], ambient: float,
-                  disc_share: float | None, seed: int) -> None:
+                  disc_share: float | None, seed: int,
+                  masks: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None) -> None:
     """The JPEG of one capture as this evaluation writes it (``cube``: the scene's render): exposed
     on the tracks, room light (``ambient`` of full scale) on the table and ``disc_share`` of it on
-    the disc (None: the same on both), UPSAMPLE× its pixels, NOISE, EXIF of the camera."""
+    the disc (None: the same on both), UPSAMPLE× its pixels, NOISE, EXIF of the camera. ``masks``:
+    the scene's tracks and disc (:func:`photo.track_mask`, :func:`photo.disc_mask`), where the
+    caller writes many photos of one capture."""
     cam = load_camera(DEFAULT_CAMERA)
-    image, _ = photo.expose(photo.linear_photo(cube, spd, cam), 1.0, photo.track_mask(scene))
+    tracks, disc = masks if masks is not None else (photo.track_mask(scene), photo.disc_mask(scene))
+    image, _ = photo.expose(photo.linear_photo(cube, spd, cam), 1.0, tracks)
     room = np.full(image.shape[:2], float(ambient))
     if disc_share is not None:
-        room[photo.disc_mask(scene)] *= disc_share
+        room[disc] *= disc_share
     image = photo.upsample(image + room[..., None] * AMBIENT_TINT, UPSAMPLE)
     image = np.minimum(photo.add_noise(image, NOISE, np.random.default_rng(seed)), 1.0)
     c = scene.preset.camera
@@ -219,10 +223,11 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
         k = i % len(captures)
         if k not in renders:
             scene = Scene(sized, captures[k][0])
-            renders[k] = (scene, render_cube(scene, supersample=SUPERSAMPLE))
-        scene, cube = renders[k]
+            masks = (photo.track_mask(scene), photo.disc_mask(scene))
+            renders[k] = (scene, render_cube(scene, supersample=SUPERSAMPLE), masks)
+        scene, cube, masks = renders[k]
         path = tmp / f"p{i}.jpg"
-        write_capture(path, scene, cube, lamp.spd, *captures[k][1:], seed=1000 + i)
+        write_capture(path, scene, cube, lamp.spd, *captures[k][1:], seed=1000 + i, masks=masks)
         # the product's loader: the whole photo here (disc 800 px in its 1024 px preview), reduced to
         # 512 px for a near-axis set-up (inverse/load.py); the truth is then the capture at that size
         loaded = load_for_estimate(path, preset)

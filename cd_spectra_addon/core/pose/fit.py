@@ -89,10 +89,9 @@ PRIOR_SCALE = np.array([5.0, 5.0, 3.0, 3.0, 3.0, 3.0, 0.3, 1.0])  # deg ×6, log
 # photo nearly as well — cd-default, camera moved 2 mm: twice the true cost, disc centre 2 px off —
 # and the rings' own centre, one tier on, starts in the right one.)
 # The escalations whose best fit is also refined on the fine level when it is not the best coarse
-# fit: the coarse cost (5 nm profile, colour at full weight) and the fine one disagree by more than
-# their fits differ — a tripod photo on a lit table whose coarse best (the outline's lamp grid) was
-# refined to a worse fine fit than the glint's line, itself 4 nm off, while the in-plane fit that
-# the outline's had displaced refined to 0.2 nm.
+# fit: both search far from the other fits (the glint's line, the lamp about the outline's poses),
+# and the coarse cost (5 nm profile, colour at full weight) and the fine one can rank such
+# captures differently.
 FINALISTS = ("glint-line", "outline-lamp")
 TIERS = (("preset",), ("pattern", "outline", "rings", "glint"), ("colours", "lines"), ESCALATIONS)
 GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained needs no escalation
@@ -453,12 +452,12 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     rim = None if outline is None else _OutlineRows(outline, preset.disc.rim_radius_mm, float(focal_px), size)
     levels = {"coarse": (coarse, COARSE_PIXELS), "fine": (fine, FINE_PIXELS)}
     samples: dict[str, _Sample] = {}
+    hub = HUB_MARGIN * preset.disc.hole_radius_mm / preset.disc.rim_radius_mm
 
     def sample_for(level: str) -> _Sample:
         """The level's pixel sample, inside the disc's outline where it shows (one for every start)."""
         if level not in samples:
             lvl, count = levels[level]
-            hub = HUB_MARGIN * preset.disc.hole_radius_mm / preset.disc.rim_radius_mm
             samples[level] = _Sample.of(lvl, count, None if outline is None else lvl.within(outline, hub))
         return samples[level]
 
@@ -580,8 +579,10 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     if lines_rule(fits):
         finalists = held[:1]
     else:
-        finalists = fits[:1] + [[f for f in fits[1:] if f.start.strategy == name][0] for name in FINALISTS
-                                if any(f.start.strategy == name for f in fits[1:])]
+        best_of: dict[str, _Fitted] = {}
+        for f in fits[1:]:  # (sorted: the first of a strategy is its best)
+            best_of.setdefault(f.start.strategy, f)
+        finalists = fits[:1] + [best_of[name] for name in FINALISTS if name in best_of]
     finished = []
     for f in finalists:
         p = problem(f.capture, "fine", STAGES[1])
