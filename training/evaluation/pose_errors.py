@@ -72,7 +72,7 @@ RANDOM_SEED = 10
 DISC_ON_TABLE = (0.1, 0.5)
 TABLE_SEED = 11
 
-__all__ = ["Case", "cases_for", "crop_preset", "main"]
+__all__ = ["Case", "cases_for", "crop_preset", "write_capture", "main"]
 
 
 @dataclass(frozen=True)
@@ -191,14 +191,16 @@ def _pose_report(fit: PoseFit, truth: Scene) -> dict:
 
 def write_capture(path: Path, scene: Scene, cube: NDArray[np.floating], spd: NDArray[np.floating], ambient: float,
                   disc_share: float | None, seed: int,
-                  masks: tuple[NDArray[np.bool_], NDArray[np.bool_]] | None = None) -> None:
+                  masks: tuple[NDArray[np.bool_], NDArray[np.bool_] | None] | None = None) -> None:
     """The JPEG of one capture as this evaluation writes it (``cube``: the scene's render): exposed
     on the tracks, room light (``ambient`` of full scale) on the table and ``disc_share`` of it on
     the disc (None: the same on both), UPSAMPLE× its pixels, NOISE, EXIF of the camera. ``masks``:
-    the scene's tracks and disc (:func:`photo.track_mask`, :func:`photo.disc_mask`), where the
-    caller writes many photos of one capture."""
+    the scene's tracks and disc (:func:`photo.track_mask`, :func:`photo.disc_mask`; the disc's only
+    where ``disc_share`` is given), where the caller writes many photos of one capture."""
     cam = load_camera(DEFAULT_CAMERA)
-    tracks, disc = masks if masks is not None else (photo.track_mask(scene), photo.disc_mask(scene))
+    tracks, disc = masks if masks is not None else (photo.track_mask(scene), None)
+    if disc is None and disc_share is not None:
+        disc = photo.disc_mask(scene)
     image, _ = photo.expose(photo.linear_photo(cube, spd, cam), 1.0, tracks)
     room = np.full(image.shape[:2], float(ambient))
     if disc_share is not None:
@@ -223,7 +225,7 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
         k = i % len(captures)
         if k not in renders:
             scene = Scene(sized, captures[k][0])
-            masks = (photo.track_mask(scene), photo.disc_mask(scene))
+            masks = (photo.track_mask(scene), None if captures[k][2] is None else photo.disc_mask(scene))
             renders[k] = (scene, render_cube(scene, supersample=SUPERSAMPLE), masks)
         scene, cube, masks = renders[k]
         path = tmp / f"p{i}.jpg"
