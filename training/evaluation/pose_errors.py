@@ -72,7 +72,7 @@ RANDOM_SEED = 10
 DISC_ON_TABLE = (0.1, 0.5)
 TABLE_SEED = 11
 
-__all__ = ["Case", "cases_for", "crop_preset", "write_capture", "main"]
+__all__ = ["Case", "cases_for", "crop_preset", "write_capture", "pose_report", "main"]
 
 
 @dataclass(frozen=True)
@@ -177,7 +177,7 @@ def pose_numbers(scene: Scene) -> tuple[float, float, float, float]:
     return aim, camera, lamp, between
 
 
-def _pose_report(fit: PoseFit, truth: Scene) -> dict:
+def pose_report(fit: PoseFit, truth: Scene) -> dict:
     """The fit against the truth (simulator only): λ₁ error on the true first-order pixels, and
     the fitted minus the true aim / camera angle / lamp angle / lamp azimuth."""
     px = pixel_diffraction(truth)
@@ -252,7 +252,7 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
                # what the confidence is built from, so that it can be judged against the error (.json)
                "checks": {k: float(v) for k, v in est.extra.get("checks", {}).items()},
                "fit_sigma": float(fit.lobe_sigma),
-               **_pose_report(fit, scene)}
+               **pose_report(fit, scene)}
         if truth:
             try:  # the true capture may itself hold too little first order to read (a refusal): NaN
                 true = estimate_image(loaded, preset=scene.preset, model=model, fit=PoseFit.of_scene(scene))

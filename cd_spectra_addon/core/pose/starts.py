@@ -44,8 +44,8 @@ from ..planning.capture_advice import glint_px
 from ..scene.capture import Preset, Scene
 from ..scene.diffraction import pixel_diffraction
 from ..scene.kernel import turn_between
-from ..scene.relative_pose import (N_PARAMS, RelativePose, aimed_at, apply_params, near_axis,
-                                   nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
+from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, RelativePose, aimed_at, apply_params,
+                                   near_axis, nominal_scene, relative_pose, scene_from_relative, turned_in_plane, with_glint_at,
                                    with_disc_centre_at, with_lamp_mirrored_at)
 from .lines import Ridges, line_fit, ridge_pixels
 from .rim_ellipse import Ellipse, circle_poses
@@ -329,7 +329,11 @@ def colour_starts(ctx: StartContext) -> list[Start]:
 
 
 def line_starts(ctx: StartContext) -> list[Start]:
-    """Every start found so far, moved onto the photo's thin lines (where it has them)."""
+    """Every start found so far, moved onto the photo's thin lines (where it has them). Where the
+    lines do not pin the capture, the lamp keeps the start's distance: the line fit moves it
+    freely (the curve barely depends on it), and LM, which holds the distance, could not take a
+    wrong one back (a synthetic tripod photo: lamp 197 mm from the disc against 200, λ₁ 3.6 nm
+    off at 10× the true capture's cost)."""
     if ctx.ridges is None:
         ctx.ridges = ridge_pixels(ctx.rgb, ctx.focal_px)
     if ctx.ridges is None:
@@ -344,7 +348,11 @@ def line_starts(ctx: StartContext) -> list[Start]:
         if fit is None:
             continue
         ctx.evaluations += fit.evaluations
-        out.append(Start(f"lines ({s.strategy})", s.pose, fit.params, held=fit.pins_geometry))
+        params = fit.params
+        if not fit.pins_geometry:
+            params = params.copy()
+            params[LAMP_DISTANCE_PARAM] = s.params[LAMP_DISTANCE_PARAM]
+        out.append(Start(f"lines ({s.strategy})", s.pose, params, held=fit.pins_geometry))
     return out
 
 
