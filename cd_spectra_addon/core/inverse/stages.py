@@ -360,7 +360,7 @@ def pose_photo(
         linear = rgb - offset if np.any(offset != 0.0) else rgb  # a dark room's photo: no copy
         fit = fit_pose(linear, preset, focal_px, sensitivities=camera.sensitivities,
                        saturated=excluded, strategies=strategies, escalations=escalations,
-                       size_from_colour=not generic_camera, judge_size=judge_size)
+                       own_colours=not generic_camera, judge_size=judge_size)
         options = focal_px_options(image) if source.startswith("exif") else []
         if len(options) > 1:
             # resized or cropped after it was taken: the focal length that explains the photo
@@ -368,7 +368,7 @@ def pose_photo(
                 if other == focal_px:
                     continue
                 alt = fit_pose(linear, preset, other, sensitivities=camera.sensitivities, saturated=excluded,
-                               strategies=strategies, escalations=escalations, size_from_colour=not generic_camera,
+                               strategies=strategies, escalations=escalations, own_colours=not generic_camera,
                                judge_size=judge_size)
                 if alt.residual < fit.residual:
                     fit, focal_px, source = alt, other, other_source

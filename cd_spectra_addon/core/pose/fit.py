@@ -37,8 +37,8 @@ from ..numerics.least_squares import levenberg_marquardt, valley_step
 from ..photo.resample import box_downsample, box_factor, brightest, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, project
-from ..scene.relative_pose import (N_PARAMS, RelativePose, apply_params, mirror_point, near_axis, nominal_scene,
-                                   relative_pose, scene_from_relative)
+from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, RelativePose, apply_params, mirror_point,
+                                   near_axis, nominal_scene, relative_pose, scene_from_relative)
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
 from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
@@ -57,7 +57,18 @@ STAGES = ((5.0, 1.0), (3.0, 0.3))
 TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit each
 # Fitted: aim, tilt, lamp direction, σ. The lamp's distance stays the preset's: it moves λ₁ only
 # through the lamp's direction varying over the disc, and left free it soaked up colour errors of
-# an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px).
+# an in-camera JPEG (lamp 10 % nearer, residual 0.11, MAE 0.29 at 160 px). Except on the fine level
+# of an oblique set-up (FINE_OBLIQUE): there the streak's wavelengths are so sensitive to the
+# geometry that a lamp moved 5 mm sideways — 1.4 mm further from the disc at the tripod's 15° —
+# read λ₁ 1.5–2.3 nm off at 2–30× the true capture's cost (synthetic lamps, scratch). Freeing
+# it there, tripod-oblique's combined captures (synthetic lamps; 24 on a black cloth, 32 on lit
+# tables) read λ₁ 0.73 → 0.57 and 0.82 → 0.54 nm on average (median 0.73 → 0.34, 0.60 → 0.39;
+# 3 and 2 photos worse by more than 0.5 nm, 9 and 8 better); phone-distant-lamp's lamp, 2 m away,
+# did not move (within 0.05 nm). Near-axis captures read worse with it (phone-near-axis: 5 of 24
+# photos 0.3–0.7 nm worse): the rings trade the lamp's distance against the tilt. Nor with the
+# generic profile, as the lamp's size (see fit_pose): Kim's real GIF frames, read with it, put
+# fewer of their lines on the fitted curve (frame 29: 75 → 68 %) and the joint estimate's r
+# against a Planck curve fell 0.42 → 0.23.
 # After each LM fit (coarse and fine) of a near-axis set-up, the cost is tried VALLEY_STEP either
 # way (parameter units: degrees, for the step's largest component) along the fit's valley — the
 # direction its Jacobian says the cost barely rises in; where one side leaves VALLEY_GAIN less
@@ -78,6 +89,7 @@ VALLEY_GAIN = 1e-3
 SIGMA_PARAM = 7  # log lamp size among the parameters (relative_pose.apply_params)
 FREE = np.array([0, 1, 2, 3, 4, 5, SIGMA_PARAM])
 UNTILTED = np.array([0, 1, 4, 5, SIGMA_PARAM])  # the same without the disc's tilt
+FINE_OBLIQUE = np.array([0, 1, 2, 3, 4, 5, LAMP_DISTANCE_PARAM, SIGMA_PARAM])
 LOBE_ONLY = np.array([SIGMA_PARAM])  # a capture the photo's thin lines pin (:mod:`.lines`): only the lobe's size
 LM_ITERATIONS = (30, 12)  # per stage: most of a fit's progress is in its first steps
 LM_TOL = (1e-4, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
@@ -424,14 +436,15 @@ def disc_sized(outline: Ellipse, preset: Preset, focal_px: float, size: tuple[in
 def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
              sensitivities: NDArray[np.float64] | None = None, saturated: NDArray[np.bool_] | None = None,
              strategies: Sequence[str] = CHEAP, escalations: Sequence[str] = ESCALATIONS,
-             size_from_colour: bool = True, judge_size: bool = True) -> PoseFit:
+             own_colours: bool = True, judge_size: bool = True) -> PoseFit:
     """Disc pose, lamp position and lamp size of any capture from a linear photo (see the module
     docstring). ``saturated`` pixels (clipped, invalid) are left out; with the camera's
     ``sensitivities`` every λ₁ must also have the camera's colour there. ``strategies`` and
     ``escalations`` name the start strategies (:data:`.starts.STRATEGIES`) to use.
-    ``size_from_colour``: judge the lamp's size on the colour blur (:func:`_sized`) and fit it
-    in the coarse stage; only where ``sensitivities`` are the camera's own (not the generic
-    profile's). ``judge_size=False`` leaves :func:`_sized` out where the caller judges the size
+    ``own_colours``: ``sensitivities`` are the camera's own (not the generic profile's), so the
+    colours may judge what they blur or shift: the lamp's size is judged on the colour blur
+    (:func:`_sized`) and fitted in the coarse stage, and an oblique set-up's lamp distance is
+    fitted on the fine level (FINE_OBLIQUE). ``judge_size=False`` leaves :func:`_sized` out where the caller judges the size
     on what it reads better (:func:`..inverse.stages.sized_by_readout`)."""
     clock = _Clock()
     rgb = np.asarray(rgb, dtype=np.float64)
@@ -496,7 +509,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     # camera_files' held-out Sony read two lamps of 30 at σ 0.0082 for 0.003, the disc 2° tilted,
     # MAE 0.36 / 0.40 against 0.086 / 0.081 at the true pose. There the coarse fits hold the start's
     # lamp size (as _sized does not judge it either); the fine stage, colour at 0.3, still fits it.
-    held_size = np.array([] if size_from_colour else [SIGMA_PARAM], dtype=np.int64)
+    held_size = np.array([] if own_colours else [SIGMA_PARAM], dtype=np.int64)
+    fine_free = FINE_OBLIQUE if own_colours and not near_axis(preset) else FREE
     fits: list[_Fitted] = []
     visited: list[tuple[RelativePose, float]] = []  # where LM started (cost ∞) and ended (its cost)
     started: list[Start] = []  # the starts LM ran from
@@ -589,13 +603,13 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
         if f.start.held:
             x, cost = held_fit(p, f.capture, np.zeros(N_PARAMS), 1)
         else:
-            x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1], LM_TOL[1])
+            x, cost = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[1], LM_TOL[1], fine_free)
             if not oblique:
                 x, cost = p.along_valley(x, cost)
         evals += p.evaluations
         finished.append(_Fitted(cost, Start(f.start.strategy, f.capture, held=f.start.held), x))
     best = min(finished, key=lambda fit: fit.cost)
-    if size_from_colour and judge_size and sensitivities is not None and not best.start.held:
+    if own_colours and judge_size and sensitivities is not None and not best.start.held:
         best = _sized(best, lambda c, g=None: problem(c, "fine", STAGES[1], g),
                       lambda c, g=None: problem(c, "fine", SIZE_STAGE, g))
     clock.lap("fine")
