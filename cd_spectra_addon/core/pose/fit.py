@@ -37,8 +37,8 @@ from ..numerics.least_squares import levenberg_marquardt, valley_step
 from ..photo.resample import box_downsample, box_factor, brightest, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, project
-from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, RelativePose, apply_params, mirror_point,
-                                   near_axis, nominal_scene, relative_pose, scene_from_relative)
+from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, SIGMA_PARAM, RelativePose, apply_params,
+                                   mirror_point, near_axis, nominal_scene, relative_pose, scene_from_relative)
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
 from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
@@ -69,7 +69,7 @@ TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit eac
 # photos 0.3–0.7 nm worse): the rings trade the lamp's distance against the tilt. Nor with the
 # generic profile, as the lamp's size (see fit_pose): Kim's real GIF frames, read with it, put
 # fewer of their lines on the fitted curve (frame 29: 75 → 68 %) and the joint estimate's r
-# against a Planck curve fell 0.42 → 0.23.
+# against a Planck curve fell 0.42 → 0.23 (at the scale 0.3).
 # After each LM fit (coarse and fine) of a near-axis set-up, the cost is tried VALLEY_STEP either
 # way (parameter units: degrees, for the step's largest component) along the fit's valley — the
 # direction its Jacobian says the cost barely rises in; where one side leaves VALLEY_GAIN less
@@ -87,10 +87,9 @@ TRIED_STARTS = 3  # the best starts by the coarse cost that get a coarse fit eac
 VALLEY_STEP = 0.5
 VALLEY_REACH = 4.0
 VALLEY_GAIN = 1e-3
-SIGMA_PARAM = 7  # log lamp size among the parameters (relative_pose.apply_params)
 FREE = np.array([0, 1, 2, 3, 4, 5, SIGMA_PARAM])
 UNTILTED = np.array([0, 1, 4, 5, SIGMA_PARAM])  # the same without the disc's tilt
-FINE_OBLIQUE = np.array([0, 1, 2, 3, 4, 5, LAMP_DISTANCE_PARAM, SIGMA_PARAM])
+FINE_OBLIQUE = np.union1d(FREE, [LAMP_DISTANCE_PARAM])
 LOBE_ONLY = np.array([SIGMA_PARAM])  # a capture the photo's thin lines pin (:mod:`.lines`): only the lobe's size
 LM_ITERATIONS = (30, 12)  # per stage: most of a fit's progress is in its first steps
 LM_TOL = (1e-4, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
@@ -451,8 +450,8 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     ``own_colours``: ``sensitivities`` are the camera's own (not the generic profile's), so the
     colours may judge what they blur or shift: the lamp's size is judged on the colour blur
     (:func:`_sized`) and fitted in the coarse stage, and an oblique set-up's lamp distance is
-    fitted on the fine level (FINE_OBLIQUE). ``judge_size=False`` leaves :func:`_sized` out where the caller judges the size
-    on what it reads better (:func:`..inverse.stages.sized_by_readout`)."""
+    fitted on the fine level (FINE_OBLIQUE). ``judge_size=False`` leaves :func:`_sized` out where
+    the caller judges the size on what it reads better (:func:`..inverse.stages.sized_by_readout`)."""
     clock = _Clock()
     rgb = np.asarray(rgb, dtype=np.float64)
     height, width, _ = rgb.shape

@@ -332,8 +332,8 @@ def line_starts(ctx: StartContext) -> list[Start]:
     """Every start found so far, moved onto the photo's thin lines (where it has them). Where the
     lines do not pin the capture, the lamp keeps the start's distance: the line fit moves it
     freely (the curve barely depends on it), and LM, which holds the distance, could not take a
-    wrong one back (a synthetic tripod photo: lamp 197 mm from the disc against 200, λ₁ 3.6 nm
-    off at 10× the true capture's cost)."""
+    wrong one back (synthetic tripod photos: the lamp moved 3–7 mm off its 200 mm, λ₁ 3.6 nm off
+    at 10× the true capture's cost; tests/test_lamp_distance.py)."""
     if ctx.ridges is None:
         ctx.ridges = ridge_pixels(ctx.rgb, ctx.focal_px)
     if ctx.ridges is None:

@@ -26,12 +26,13 @@ from numpy.typing import NDArray
 from .capture import Camera, Light, Pose, Preset, Scene
 from .kernel import camera_rays, diffraction_along, project, rotation_about, rotation_xy, turn_between
 
-__all__ = ["RelativePose", "N_PARAMS", "LAMP_DISTANCE_PARAM", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
+__all__ = ["RelativePose", "N_PARAMS", "LAMP_DISTANCE_PARAM", "SIGMA_PARAM", "relative_pose", "scene_from_relative", "nominal_scene", "apply_params",
            "aimed_at", "mirror_point", "with_glint_at", "with_lamp_mirrored_at", "with_disc_centre_at", "near_axis", "with_lamp_distance",
            "RayDiffraction", "ray_diffraction", "turned_in_plane", "plane_axis"]
 
 N_PARAMS = 8  # aim (2, deg), disc normal (2, deg), lamp direction (2, deg), log lamp distance, log σ
-LAMP_DISTANCE_PARAM = 6
+LAMP_DISTANCE_PARAM = 6  # their indices where a caller holds one or frees it
+SIGMA_PARAM = 7
 
 
 @dataclass(frozen=True)
