@@ -91,10 +91,11 @@ def test_an_outline_far_from_the_discs_size_is_not_the_disc():
     held to it, the fit refused a readable photo (tests/test_hostile_inputs.py, greyscale)."""
     preset = load_preset("cd-default")
     size, focal = (256, 256), 412.4
+    # the rim's size with the preset's camera distance (210 mm: the disc nominally seen square on)
     expected = focal * preset.disc.rim_radius_mm / relative_pose(nominal_scene(preset, size, focal)).distance_mm
     for share, taken in ((1.0, True), (1.5, True), (0.7, True), (0.45, False), (1.7, False)):
         outline = Ellipse((128.0, 128.0), share * expected, 0.98 * share * expected, 0.0, lit=False)
-        assert pose_fit.disc_sized(outline, preset, focal, size) is taken, share
+        assert pose_fit.disc_sized(outline, preset, focal) is taken, share
 
 
 @pytest.mark.slow

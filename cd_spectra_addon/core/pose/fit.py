@@ -38,7 +38,7 @@ from ..photo.resample import box_downsample, box_factor, brightest, channel_sum
 from ..scene.capture import Preset
 from ..scene.kernel import camera_rays, project
 from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, SIGMA_PARAM, RelativePose, apply_params,
-                                   mirror_point, near_axis, nominal_scene, relative_pose, scene_from_relative)
+                                   mirror_point, near_axis, scene_from_relative)
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
 from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
@@ -432,10 +432,10 @@ class _Fitted:
 OUTLINE_SIZE_FACTOR = 1.6
 
 
-def disc_sized(outline: Ellipse, preset: Preset, focal_px: float, size: tuple[int, int]) -> bool:
-    """Whether ``outline`` is about the size the preset's disc has in the photo (OUTLINE_SIZE_FACTOR)."""
-    nominal = relative_pose(nominal_scene(preset, size, focal_px))
-    expected = focal_px * preset.disc.rim_radius_mm / nominal.distance_mm
+def disc_sized(outline: Ellipse, preset: Preset, focal_px: float) -> bool:
+    """Whether ``outline`` is about the size the preset's disc has in the photo (OUTLINE_SIZE_FACTOR),
+    at the camera distance the outline's focal length is read with (inverse.stages)."""
+    expected = focal_px * preset.disc.rim_radius_mm / preset.camera.distance_mm
     return 1.0 / OUTLINE_SIZE_FACTOR <= outline.major_px / expected <= OUTLINE_SIZE_FACTOR
 
 
@@ -457,7 +457,7 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     height, width, _ = rgb.shape
     size = (width, height)
     outline = disc_ellipse(rgb, saturated)
-    if outline is not None and not disc_sized(outline, preset, focal_px, size):
+    if outline is not None and not disc_sized(outline, preset, focal_px):
         outline = None  # edges along the rainbow's own rings, not the disc's rim
     if outline is not None:
         # room light on the disc but not around it: the photo-wide offset missed it
