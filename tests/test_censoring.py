@@ -15,7 +15,7 @@ from hypothesis.extra.numpy import arrays
 
 from cd_spectra_addon.core.calibration.calibration import (EXPLAIN_LIMIT, Calibration, calibration_warning,
                                                            unexplained_share)
-from cd_spectra_addon.core.calibration.camera_pipeline import fit_pipeline
+from cd_spectra_addon.core.calibration.camera_pipeline import LUMA, compress_gamut, fit_pipeline
 from cd_spectra_addon.core.calibration.censoring import uncensor
 from cd_spectra_addon.core.photo.clipping import HIGH_LINEAR, LOW_LINEAR, clipped_channels
 from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
@@ -218,3 +218,34 @@ def test_a_calibrated_jpeg_with_a_blinking_rainbow_says_it_is_over_exposed(tmp_p
     assert any("has a channel at full scale" in w for w in over.warnings), over.warnings
     assert 0.5 <= over.confidence < 0.95 and over.extra["checks"]["full_scale_bins"] > 0.05
     assert not any("over-exposed" in w for w in read["rendering"].warnings), read["rendering"].warnings
+
+
+def test_a_gamut_compressed_readout_comes_back_along_its_rays():
+    """A camera that compresses its gamut (each out-of-gamut colour moved towards its own
+    luminance until its weakest channel is 0) keeps luminance and hue and loses saturation: read
+    as per-channel bounds, the native readout of CIE A is off by several per cent of its peak in
+    the median bin; read along each colour's ray, to 0.1 %. A colour of no positive luminance is
+    sent to black and has no ray (its channels stay bounds); no bin is lost."""
+    forward = _forward()
+    valid = (FEATURE_LAMBDA_NM >= 400) & (FEATURE_LAMBDA_NM <= 700)
+    native = np.einsum("bcl,l->bc", forward, known_lamp_spd("incandescent"))
+    display = native @ PIPE.matrix.T
+    display = display * 0.9 / display[valid].max()
+    native = display @ np.linalg.inv(PIPE.matrix).T
+    written = compress_gamut(display)
+    censored = np.where(written <= LOW_LINEAR, -1, 0).astype(np.int8)
+    assert np.sum(np.any(censored < 0, axis=1) & valid) > 40  # a spectral colour is out of sRGB's gamut
+    black = valid & (written @ LUMA <= 1e-9)
+    assert np.any(black)  # deep violet through this matrix: no luminance, written black
+    as_bounds = uncensor(_readout(written, censored, valid), PIPE.matrix, forward)
+    rays = uncensor(_readout(written, censored, valid), PIPE.matrix, forward, compressed=True)
+    known = uncensor(_readout(written, censored, valid), PIPE.matrix, forward, compressed=True,
+                     known_spd=known_lamp_spd("incandescent"))
+    peak = native[valid].max()
+    lit = valid & ~black
+    assert np.array_equal(rays.valid, valid) and rays.censored is None and np.all(np.isfinite(rays.values))
+    assert np.median(np.abs(as_bounds.values[lit] - native[lit])) > 0.01 * peak
+    assert np.median(np.abs(rays.values[lit] - native[lit])) < 0.001 * peak
+    # The lamp known, its scale is set with the black colours' (wrong) bounds in: still 5× closer.
+    bounds_err = np.median(np.abs(as_bounds.values[lit] - native[lit]))
+    assert np.median(np.abs(known.values[lit] - native[lit])) < 0.3 * bounds_err

@@ -642,7 +642,8 @@ def _censored_readout(posed: Posed, scene: Scene, pixels: PixelDiffraction, ambi
     measured = extract_readout(display, posed.image.invalid, scene, pixels, clipped=posed.clipped)
     response = bin_response(scene, measured)
     gains = posed.calibration.gains  # type: ignore[union-attr]
-    return uncensor(measured, pipeline.matrix, feature_matrix(response, posed.camera), gains, known_spd), response
+    return uncensor(measured, pipeline.matrix, feature_matrix(response, posed.camera), gains, known_spd,
+                    compressed=pipeline.gamut == "compress"), response
 
 
 def read_photo(image: LinearImage, preset: Preset, camera: CameraProfile, *,

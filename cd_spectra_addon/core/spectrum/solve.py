@@ -76,14 +76,15 @@ class Rows:
 
 
 def rows_for(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
-             background: bool = True, floor: NDArray[np.float64] | None = None) -> Rows:
+             background: bool = True, floor: NDArray[np.float64] | None = None,
+             columns: NDArray[np.float64] | None = None) -> Rows:
     """Weighted rows of one photo's valid features (see :func:`system`)."""
-    return Rows(*system(readout, matrix, gain, background, floor), n=matrix.shape[-1])
+    return Rows(*system(readout, matrix, gain, background, floor, columns), n=matrix.shape[-1])
 
 
 def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float64] | None = None,
-           background: bool = True, floor: NDArray[np.float64] | None = None
-           ) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+           background: bool = True, floor: NDArray[np.float64] | None = None,
+           columns: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
     """Weighted rows (A, y) of the valid features and the data scale (peak feature).
 
     With ``background`` the last six columns are ± a constant per channel: ambient light and the
@@ -91,6 +92,8 @@ def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float
     lamp seen through a camera, so they separate cleanly instead of becoming a fake IR tail.
     ``floor`` (per bin) multiplies the model-error floor: a joint estimate trusts a photo's
     features at the edge of its tracks less where another photo reads those wavelengths well.
+    ``columns`` (NB, 3, F): more free, non-negative unknowns in the features' units, after the
+    backgrounds (how far a gamut-compressed colour lies out along its ray: :mod:`..calibration.censoring`).
     """
     values = readout.values if gain is None else readout.values / np.where(gain > 0, gain, 1.0)
     valid = readout.valid
@@ -99,6 +102,8 @@ def system(readout: Readout, matrix: NDArray[np.float64], gain: NDArray[np.float
     if background:
         channel = np.tile(np.eye(3), (int(valid.sum()), 1))
         a = np.concatenate([a, channel, -channel], axis=1)
+    if columns is not None:
+        a = np.concatenate([a, np.asarray(columns, np.float64)[valid].reshape(y.size, -1)], axis=1)
     scale = float(np.max(np.abs(y))) if y.size else 0.0
     if scale <= 0:
         return a, y, 0.0
