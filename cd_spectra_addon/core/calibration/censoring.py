@@ -130,7 +130,9 @@ def _ray_solve(readout: Readout, fd: NDArray[np.float64], known: NDArray[np.floa
                out: NDArray[np.bool_], columns: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(spectrum, each ray's distance beyond its written colour): the physics solve with the
     rays' free columns — or, for a known lamp, its scale and the distances by non-negative least
-    squares on the values that are not bounds."""
+    squares on the values that are not bounds. No per-channel backgrounds here (the per-channel
+    case has them): a constant per display channel moves every written colour off its ray, so
+    the two trade against each other (solved alternately with them, the rays drifted off)."""
     if known is None:
         x = solve_physics(rows_for(readout, fd, background=False, columns=columns))
         return x[:fd.shape[-1]], x[fd.shape[-1]:]
@@ -140,7 +142,7 @@ def _ray_solve(readout: Readout, fd: NDArray[np.float64], known: NDArray[np.floa
     keep = ~out[readout.valid].reshape(-1)
     a, y = rows.a[keep], rows.y[keep]
     if rows.scale <= 0 or a.shape[0] == 0:
-        return spd * 0.0, np.zeros(columns.shape[-1])
+        return np.zeros_like(spd), np.zeros(columns.shape[-1])
     gram = a.T @ a
     x = nnls_normal(gram + 1e-12 * np.trace(gram) / gram.shape[0] * np.eye(gram.shape[0]), a.T @ y)
     return spd * x[0], x[1:]
