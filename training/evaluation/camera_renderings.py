@@ -328,8 +328,8 @@ def learned_renderings(folder: Path) -> list[LearnedRendering]:
         except (ValueError, OSError, ImportError) as exc:
             print(f"{raw.name}: no rendering learned ({exc})", flush=True)
             continue
-        print(f"{raw.name}: {rendering.name}, fit {rendering.rms_codes:.1f} codes rms over {rendering.blocks} blocks",
-              flush=True)
+        print(f"{rendering.source}: {rendering.name}, fit {rendering.rms_codes:.1f} codes rms over {rendering.blocks} "
+              "blocks", flush=True)
         out.append(rendering)
     return out
 
@@ -339,8 +339,8 @@ def real_renderings_note(learned: list[LearnedRendering]) -> str:
         return ("Real cameras' own renderings: **none measured in this run** — give a folder of raw files with their "
                 "cameras' JPEGs (`make eval-camera-renderings RAW_PAIRS=/path`); the photos are not in the "
                 "repository (their licences are unknown).")
-    cams = "; ".join(f"{r.name} (the fit reproduces its own JPEG to {r.rms_codes:.1f} codes rms over {r.blocks} "
-                     "blocks of 8×8 px)" for r in learned)
+    cams = "; ".join(f"{r.name} ({f'`{r.source}`; ' if r.source else ''}the fit reproduces its own JPEG to "
+                     f"{r.rms_codes:.1f} codes rms over {r.blocks} blocks of 8×8 px)" for r in learned)
     return ("Real cameras' own renderings (rows `(real, learned)`): each learned from one raw file and the JPEG "
             "its camera wrote of the same shot (`training/evaluation/learned_rendering.py`: the camera's tone "
             "curve per channel and its colour look beyond colorimetry, fitted on the pair; then applied to the "

@@ -22,8 +22,9 @@ the fit: they are bounds, not values. The photos themselves are never stored in 
 
 from __future__ import annotations
 
+import hashlib
 import io
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,9 @@ class LearnedRendering:
     rms_codes: float  # the fit's error on its own pair, 8-bit codes (blocks not clipped)
     blocks: int  # blocks fitted
     pair_gains: NDArray[np.float64] = field(default_factory=lambda: np.ones(3))  # the pair's white balance (green 1)
+    # The raw file it was learned from, "NAME, sha256 PREFIX": two files of one camera model
+    # learn different renderings (a D30 sample read 3.8 codes RMS, another 4.2), so a bench says which.
+    source: str = ""
 
     def tone(self, display: NDArray[np.float64]) -> NDArray[np.float64]:
         """Linear values (…, 3) → the camera's file-linear output."""
@@ -233,4 +237,6 @@ def _resize(image: NDArray[np.float64], shape: tuple[int, int]) -> NDArray[np.fl
 
 def learn_from_file(raw_path: Path, jpeg_path: Path | None = None) -> LearnedRendering:
     native, codes, colorimetric, clipped, name = load_pair(raw_path, jpeg_path)
-    return fit_rendering(native, codes, colorimetric, clipped, name=name)
+    digest = hashlib.sha256(Path(raw_path).read_bytes()).hexdigest()[:12]
+    return replace(fit_rendering(native, codes, colorimetric, clipped, name=name),
+                   source=f"{Path(raw_path).name}, sha256 {digest}")
