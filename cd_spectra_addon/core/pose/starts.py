@@ -191,8 +191,8 @@ def pattern_start(ctx: StartContext) -> list[Start]:
     nominal = ctx.nominal()
     lum, factor = _small(ctx)
     sh, sw = lum.shape
-    _, dr, dc = _correlation_peak(lum, _expected_pattern(scene_from_relative(nominal, ctx.preset, (sw, sh),
-                                                                              ctx.focal_px / factor)))
+    predicted = _expected_pattern(scene_from_relative(nominal, ctx.preset, (sw, sh), ctx.focal_px / factor))
+    _, dr, dc = _correlation_peak(lum, predicted)
     return [Start("pattern", nominal, _aimed_by(np.zeros(N_PARAMS), dr * factor, dc * factor, ctx.focal_px))]
 
 
