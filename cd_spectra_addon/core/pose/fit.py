@@ -125,7 +125,7 @@ GOOD_COST = 0.003  # a coarse fit that leaves less of the photo unexplained need
 # --synthetic, 24 combined captures per set-up): sought above GOOD_COST, phone-distant-lamp's
 # coarse cost preferred a neighbour of the truth (0.0028 against 0.0035 at the truth) on two
 # photos, λ₁ 1.7 → 3.3 and 1.2 → 1.6 nm; above 0.01 they are untouched, and the tripod's gains
-# (λ₁ 13 → 0.1 and 27 → 0.2 nm) stay.
+# (captures 14 and 15: λ₁ 13 → 2.3 and 14 → 0.2 nm) stay.
 TILTED_COST = 0.01
 EVERY_START = ("tilted",)  # strategies whose every start gets an LM fit: their starting costs do not rank them
 # A ``widened`` start is fitted first with the lamp's lobe this many times wider, in turn, then at
