@@ -2,6 +2,7 @@
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +17,10 @@ from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
-from cd_spectra_addon.core.inverse.estimate import estimate_photo
-from cd_spectra_addon.core.inverse.stages import brightest_level
+from cd_spectra_addon.core.inverse.estimate import (RESIDUAL_FLOOR, RESIDUAL_OK, RESIDUAL_WARN, _unexplained, estimate_photo,
+                                                   profile_residual)
+from cd_spectra_addon.core.inverse.stages import brightest_level, read_photo
+from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
@@ -230,3 +233,30 @@ def test_the_brightest_level_ignores_clipped_pixels_and_sees_a_small_rainbow():
     rgb[:20, :10] = 1.0  # ... clipped: only the dark rest counts
     assert brightest_level(rgb, np.any(rgb >= 1.0, axis=2)) == pytest.approx(0.001)
     assert brightest_level(rgb, np.ones((1000, 1000), bool)) == 0.0
+
+
+def test_a_spectrum_that_leaves_the_rainbow_unexplained_costs_confidence(tmp_path, capture):
+    """The same lamp through the right camera profile and through sensitivities 4 nm off it (a
+    wrong profile): the right one leaves ~0.1 % of the readout unexplained and loses nothing for
+    it; the wrong one leaves several times RESIDUAL_OK, is told so and loses confidence for it.
+    8-bit PNG: a 256 px JPEG's half-resolution chroma alone leaves 0.6–1 % (see
+    tests/test_joint_estimate.py)."""
+    base = load_camera(DEFAULT_CAMERA)
+    shifted = CameraProfile("shifted", np.stack([np.interp(WAVELENGTHS_NM - 4.0, WAVELENGTHS_NM, base.sensitivities[:, c])
+                                                 for c in range(3)], axis=1))
+    right = estimate_photo(_write(tmp_path, capture, _warm_led(), "right", fmt="png"), preset=PRESET)
+    wrong = estimate_photo(_write(tmp_path, capture, _warm_led(), "wrong", fmt="png", camera=shifted), preset=PRESET)
+    told = [w for w in wrong.warnings if "of the rainbow unexplained" in w]
+    assert right.extra["checks"]["unexplained"] < RESIDUAL_OK
+    assert not any("of the rainbow unexplained" in w for w in right.warnings)
+    assert wrong.extra["checks"]["unexplained"] > RESIDUAL_WARN and len(told) == 1
+    factor = max(RESIDUAL_FLOOR, RESIDUAL_OK / wrong.extra["checks"]["unexplained"])
+    assert wrong.confidence <= right.confidence * factor + 1e-9
+    # What the readout's own noise explains is not held against it.
+    reading = read_photo(load_photo(_write(tmp_path, capture, _warm_led(), "noisy", fmt="png")), load_preset(PRESET),
+                         base)
+    readout = reading.readout
+    residual = profile_residual(readout, reading.matrix, peak_normalise(_warm_led()))
+    assert 0.0 <= _unexplained(readout, residual) <= residual
+    loud = replace(readout, noise=readout.noise + residual * np.max(np.abs(readout.values)))
+    assert _unexplained(loud, residual) == 0.0

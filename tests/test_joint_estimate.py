@@ -32,6 +32,7 @@ from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from cd_spectra_addon.core.spectrum.model import load_model
+from cd_spectra_addon.core.spectrum.tails import RED_RAMP_NM
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -67,13 +68,16 @@ def captures() -> dict[int, tuple[Preset, np.ndarray, np.ndarray]]:
 
 def _shoot(folder: Path, captures, distance_mm: int, spd: np.ndarray, seed: int, exposure: float = 1.0,
            name: str | None = None) -> tuple[Path, float]:
-    """An 8-bit JPEG with 1 % noise and EXIF; returns its path and the exposure gain used."""
+    """An 8-bit PNG with 1 % noise and EXIF; returns its path and the exposure gain used. Not a
+    JPEG: at 256 px its half-resolution chroma leaves 0.6–1 % of the rainbow unexplained at the
+    true capture (0.07 % as PNG), and the confidence's penalty for that would hide what these
+    tests check of it: coverage and agreement."""
     preset, cube, meter = captures[distance_mm]
     img, gain = photo.expose(photo.linear_photo(cube, spd, CAMERA), exposure, meter)
     img = np.minimum(photo.add_noise(img, 0.01, np.random.default_rng(seed)), 1.0)
     c = preset.camera
-    path = folder / f"{name or f'{distance_mm}mm'}.jpg"
-    photo.write_photo(path, img, "jpg", photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0],
+    path = folder / f"{name or f'{distance_mm}mm'}.png"
+    photo.write_photo(path, img, "png", photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0],
                                                         DEFAULT_CAMERA))
     return path, gain
 
@@ -94,8 +98,9 @@ def _mae(spd: np.ndarray) -> float:
 
 @pytest.mark.slow
 def test_complementary_photos_beat_either_alone_and_cover_the_union(pair):
-    """MAE 400–700 (measured): 150 mm alone 0.018, 300 mm alone 0.062, joint 0.013; confidence
-    0.52 and 0.50 alone (72 % and 70 % coverage), 1.0 jointly."""
+    """MAE 400–700 (measured): 150 mm alone 0.013, 300 mm alone 0.052, joint 0.009; confidence
+    0.52 and 0.32 alone (72 % coverage each; the 300 mm photo's small disc also leaves 0.4 % of
+    its rainbow unexplained), 0.79 jointly (no coverage penalty; the 300 mm photo still 0.48)."""
     paths, presets, _, _ = pair
     alone = [estimate_photo(p, preset=pr) for p, pr in zip(paths, presets)]
     joint = estimate_joint(paths, preset=presets)
@@ -103,12 +108,14 @@ def test_complementary_photos_beat_either_alone_and_cover_the_union(pair):
         assert single.extra["checks"]["coverage_400_700"] < 0.8
     assert joint.extra["joint"]["coverage_400_700"] == 1.0
     assert _mae(joint.spd) < min(_mae(s.spd) for s in alone)
-    assert joint.confidence > max(s.confidence for s in alone) + 0.3  # the union covers what each misses
+    assert joint.confidence > max(s.confidence for s in alone) + 0.2  # the union covers what each misses
     # Where one photo is blind and the other sees, the joint is as sure as the one that sees.
     red, blue = (WAVELENGTHS_NM > 620) & (WAVELENGTHS_NM <= 700), (WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM < 480)
     assert np.all(joint.spd_std[red] <= alone[0].spd_std[red] + 1e-12)
     assert np.all(joint.spd_std[blue] <= alone[1].spd_std[blue] + 1e-12)
-    assert np.mean(joint.spd_std[red]) < 0.6 * np.mean(alone[1].spd_std[red])
+    # Below the red tail's ramp, where the uncertainty is the reading's and not the tail model's.
+    seen_red = red & (WAVELENGTHS_NM < RED_RAMP_NM[0])
+    assert np.mean(joint.spd_std[seen_red]) < 0.6 * np.mean(alone[1].spd_std[seen_red])
     assert not any("400–700 nm is visible" in w for w in joint.warnings)
     photos = joint.extra["joint"]["photos"]
     # Each photo's own range, where the tracks' first order puts it (to a 5 nm bin: the readout's
@@ -124,12 +131,12 @@ def test_complementary_photos_beat_either_alone_and_cover_the_union(pair):
 def test_a_photo_too_short_alone_contributes_its_stretch(pair, captures, tmp_path):
     """A 125 mm photo holds 578–700 nm of the first order: refused alone (< 150 nm), saying what
     it holds. With the 300 mm photo (400–612 nm) it is read for its stretch and the joint covers
-    400–700 nm: MAE 0.024 against 0.062 from the 300 mm photo alone (measured). Two such short
+    400–700 nm: MAE 0.007 against 0.052 from the 300 mm photo alone (measured). Two such short
     photos together still hold too little, and the joint is refused saying so."""
     paths, presets, _, _ = pair
     short, _ = _shoot(tmp_path, captures, SHORT, _lamp(), seed=2, name="short")
     again, _ = _shoot(tmp_path, captures, SHORT, _lamp(), seed=3, name="again")
-    with pytest.raises(NoDiscError, match=r"short.jpg: the rainbow is found but .* holds only 5\d\d–700 nm"):
+    with pytest.raises(NoDiscError, match=r"short.png: the rainbow is found but .* holds only 5\d\d–700 nm"):
         estimate_photo(short, preset=captures[SHORT][0])
     far = estimate_photo(paths[1], preset=presets[1])
     joint = estimate_joint([paths[1], short], preset=[presets[1], captures[SHORT][0]])
@@ -140,10 +147,10 @@ def test_a_photo_too_short_alone_contributes_its_stretch(pair, captures, tmp_pat
     (held,) = short_entry["held_nm"]
     assert 560 < held[0] < 600 and held[1] == 700.0
     assert "too little for a reading of its own" in short_entry["partial"]
-    assert any(w.startswith("short.jpg holds only") for w in joint.warnings)
+    assert any(w.startswith("short.png holds only") for w in joint.warnings)
     assert _mae(joint.spd) < 0.5 * _mae(far.spd)
     assert joint.confidence > far.confidence
-    with pytest.raises(PhotoError, match=r"the 2 photos together hold only 5\d\d–700 nm .*short.jpg holds"):
+    with pytest.raises(PhotoError, match=r"the 2 photos together hold only 5\d\d–700 nm .*short.png holds"):
         estimate_joint([short, again], preset=captures[SHORT][0])
     # A photo whose rainbow is found (its true pose given) but whose first order holds none of
     # 400–700 nm is left out saying so - not "no CD rainbow" - and the others are still read.
@@ -151,7 +158,7 @@ def test_a_photo_too_short_alone_contributes_its_stretch(pair, captures, tmp_pat
     result = estimate_joint([paths[1], beyond], preset=[presets[1], captures[BEYOND][0]], method="prior",
                             fits=[None, PoseFit.of_scene(Scene(captures[BEYOND][0]))])
     (refused,) = [p["refused"] for p in result.extra["joint"]["photos"] if p["refused"]]
-    assert refused.startswith("beyond.jpg: the rainbow is found but its first order on the disc's tracks holds "
+    assert refused.startswith("beyond.png: the rainbow is found but its first order on the disc's tracks holds "
                               "none of 400–700 nm (0 nm; a photo of a joint estimate needs 50 nm of 400–700)")
     assert result.extra["joint"]["used"] == 1
 
@@ -244,7 +251,7 @@ def test_a_photo_of_another_lamp_is_flagged_and_given_less_say(pair, captures, t
     photos = result.extra["joint"]["photos"]
     assert [p["weight"] < 1.0 for p in photos] == [False, False, True]
     assert photos[2]["weight"] < 0.5 and photos[2]["inconsistent"]
-    assert any(w.startswith("bulb.jpg: the joint spectrum does not reproduce it") for w in result.warnings)
+    assert any(w.startswith("bulb.png: the joint spectrum does not reproduce it") for w in result.warnings)
     assert _mae(result.spd) < 0.1
     # A third of the data disagrees: the estimate is less sure than the two photos of the LED.
     consistent = estimate_joint(paths, preset=presets, method="prior")
