@@ -22,6 +22,7 @@ from cd_spectra_addon.core.photo.resample import box_downsample
 from cd_spectra_addon.core.pose import rim_ellipse
 from cd_spectra_addon.core.pose.edge_outline import dark_disc_outline
 from cd_spectra_addon.core.pose.rim_ellipse import (
+    circle_poses,
     Ellipse, circle_distance_mm, disc_ellipse, focal_px_from_outline, project_circle,
 )
 from cd_spectra_addon.core.scene import relative_pose
@@ -157,6 +158,30 @@ def test_focal_from_outline_inverts_the_projection(focal, distance, off, tilt, t
         return
     assert circle_distance_mm(image, RIM_MM, focal) == pytest.approx(distance, rel=1e-6)
     assert focal_px_from_outline(image, RIM_MM, distance) == pytest.approx(focal, rel=1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(focal=st.floats(300.0, 6000.0), distance=st.floats(100.0, 900.0), off=st.tuples(*[st.floats(-0.35, 0.35)] * 2),
+       tilt=st.floats(0.0, 60.0), turn=st.floats(0.0, 360.0))
+def test_circle_poses_invert_the_projection(focal, distance, off, tilt, turn):
+    """One of the two poses an outline allows is the circle's own (centre and normal to 1e-4:
+    face-on, where the two merge, the normal is known to the square root of the conic's precision),
+    however near, oblique and off-centre; both face the camera and lie in front of it."""
+    direction = np.array([off[0], off[1], -1.0])
+    direction /= np.linalg.norm(direction)
+    axis = np.cross(direction, [math.cos(math.radians(turn)), math.sin(math.radians(turn)), 0.0])
+    axis /= np.linalg.norm(axis)
+    t = math.radians(tilt)
+    normal = -direction * math.cos(t) + np.cross(axis, -direction) * math.sin(t)
+    centre = direction * distance
+    image = project_circle(centre, normal, RIM_MM, focal, (750, 625))
+    if image.minor_px < 2.0:
+        return
+    poses = circle_poses(image, RIM_MM, focal, (750, 625))
+    assert len(poses) == 2
+    assert all(c[2] < 0 and n @ c < 0 and n @ n == pytest.approx(1.0) for c, n in poses)
+    miss = min(np.linalg.norm(c - centre) / distance + np.linalg.norm(n - normal) for c, n in poses)
+    assert miss < 1e-4
 
 
 def test_off_centre_the_exact_focal_differs_from_the_rule_of_thumb():

@@ -4,7 +4,8 @@ A lit disc (room light, a white card behind it, the diffuse base of its lacquer)
 a dark surround as an ellipse. With the focal length from EXIF, a circle of radius R seen as an
 ellipse of semi-axes a ≥ b fixes the camera's distance (≈ f·R/a), how far the disc is turned
 from the line of sight (cos θ ≈ b/a) and about which image axis (the major one) — up to the sign
-of the turn, so it gives two poses. The general-pose fit takes both as starts where an outline is
+of the turn, so it gives two poses (:func:`circle_poses` solves them exactly: near and oblique,
+those rules of thumb are degrees and millimetres off). The general-pose fit takes both as starts where an outline is
 found and never needs one: under a small lamp in a dark room (and in this project's simulator)
 the disc's base is far below the rainbow and no outline shows.
 
@@ -144,23 +145,15 @@ def _lit_disc(lum: NDArray[np.float64], finite: NDArray[np.float64]) -> Ellipse 
 def circle_poses(ellipse: Ellipse, radius_mm: float, focal_px: float, image_size: tuple[int, int]
                  ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """The two (centre, unit normal towards the camera) in the camera frame (mm) of a circle of
-    ``radius_mm`` seen as ``ellipse`` (small-angle approximation: a start for the fit)."""
-    width, height = image_size
-    row, col = ellipse.centre_px
-    ray = np.array([col + 0.5 - width / 2.0, height / 2.0 - (row + 0.5), -focal_px])
-    ray /= np.linalg.norm(ray)
-    distance = focal_px * radius_mm / ellipse.major_px
-    centre = ray * distance
-    tilt = math.acos(min(1.0, ellipse.minor_px / ellipse.major_px))
-    axis = np.array([math.cos(ellipse.angle), math.sin(ellipse.angle), 0.0])  # the major axis: the turn's axis
-    axis -= (axis @ ray) * ray
-    axis /= np.linalg.norm(axis)
-    facing = -ray
+    ``radius_mm`` seen as ``ellipse``: the exact back-projection (:func:`_circular_sections`).
+    Why not the ellipse's centre, f·R/a and cos θ = b/a: near and oblique, perspective moves the
+    image of the circle's centre off the ellipse's and stretches its near side. A phone 125 mm
+    from a disc turned 39° had that start's centre 15 mm and its normal 3.5° off, and no strategy
+    found the rainbow from there (pose_errors' distant-lamp lit table, capture 12)."""
     out = []
-    for sign in (1.0, -1.0):
-        a = sign * tilt
-        normal = facing * math.cos(a) + np.cross(axis, facing) * math.sin(a)  # Rodrigues, axis ⟂ facing
-        out.append((centre, normal / np.linalg.norm(normal)))
+    for normal, middle, radius in _circular_sections(ellipse, focal_px, image_size):
+        centre = middle * (radius_mm / radius)
+        out.append((centre, normal if normal @ centre < 0 else -normal))
     return out
 
 
@@ -238,11 +231,11 @@ def _image_conic(ellipse: Ellipse, image_size: tuple[int, int]) -> NDArray[np.fl
     return out
 
 
-def circle_distance_mm(ellipse: Ellipse, radius_mm: float, focal_px: float,
-                       image_size: tuple[int, int] | None = None) -> float:
-    """Distance from the camera to the centre of a circle of ``radius_mm`` seen as ``ellipse``
-    with ``focal_px``: the exact back-projection (the circular sections of the ellipse's cone,
-    Safaee-Rad et al. 1992), not f·R/a. Both of the two circles the cone holds are this far."""
+def _circular_sections(ellipse: Ellipse, focal_px: float, image_size: tuple[int, int] | None
+                       ) -> list[tuple[NDArray[np.float64], NDArray[np.float64], float]]:
+    """The two circles the cone of rays through ``ellipse`` holds (Safaee-Rad et al. 1992): each
+    plane's unit normal, and the centre and radius of its section, in front of the camera, at a
+    scale of the plane's choosing (similar triangles: times R / radius for a circle of radius R)."""
     size = image_size or ellipse.image_size
     if size is None:
         raise ValueError("the image size is needed: where the lens's axis meets the image")
@@ -254,22 +247,38 @@ def circle_distance_mm(ellipse: Ellipse, radius_mm: float, focal_px: float,
     l3, l2, l1 = evals  # ascending: l3 < 0 < l2 ≤ l1
     if not (l3 < 0 < l2):
         raise ValueError("the outline is not the image of a circle in front of the camera")
-    # a circular section's normal, in the cone's eigenbasis (e1, e2, e3) = columns (2, 1, 0)
-    normal = evecs[:, 2] * math.sqrt((l1 - l2) / (l1 - l3)) + evecs[:, 0] * math.sqrt((l2 - l3) / (l1 - l3))
-    # the section by the plane normal·p = 1: rays through the outline, cut by the plane
     t = np.linspace(0.0, 2.0 * math.pi, 36, endpoint=False)
     c, s = math.cos(ellipse.angle), math.sin(ellipse.angle)
     x0, y0, _ = _ray(*ellipse.centre_px, 0.0, size)
     px = x0 + ellipse.major_px * np.cos(t) * c - ellipse.minor_px * np.sin(t) * s
     py = y0 + ellipse.major_px * np.cos(t) * s + ellipse.minor_px * np.sin(t) * c
     rays = np.stack([px, py, np.full_like(px, -focal_px)], axis=1)
-    along = rays @ normal
-    if np.any(along == 0) or np.any(np.sign(along) != np.sign(along[0])):
-        raise ValueError("the outline's cone has no circular section in front of the camera")
-    points = rays / along[:, None]
-    centre = points.mean(axis=0)  # not the circle's centre: the rays are spaced evenly in the image
-    radius, _, middle = _circle_in_plane(points, normal, centre)
-    return float(np.linalg.norm(middle) * radius_mm / radius) if radius > 0 else math.nan
+    out = []
+    # a circular section's normal, in the cone's eigenbasis (e1, e2, e3) = columns (2, 1, 0)
+    for sign in (1.0, -1.0):
+        normal = sign * evecs[:, 2] * math.sqrt((l1 - l2) / (l1 - l3)) + evecs[:, 0] * math.sqrt((l2 - l3) / (l1 - l3))
+        normal /= np.linalg.norm(normal)
+        along = rays @ normal
+        if np.any(along == 0) or np.any(np.sign(along) != np.sign(along[0])):
+            raise ValueError("the outline's cone has no circular section in front of the camera")
+        points = rays / np.abs(along)[:, None]  # the rays cut by the plane normal·p = ±1, in front
+        centre = points.mean(axis=0)  # not the circle's centre: the rays are spaced evenly in the image
+        radius, _, middle = _circle_in_plane(points, normal, centre)
+        if radius > 0:
+            out.append((normal, middle, radius))
+    return out
+
+
+def circle_distance_mm(ellipse: Ellipse, radius_mm: float, focal_px: float,
+                       image_size: tuple[int, int] | None = None) -> float:
+    """Distance from the camera to the centre of a circle of ``radius_mm`` seen as ``ellipse``
+    with ``focal_px``: the exact back-projection (the circular sections of the ellipse's cone,
+    Safaee-Rad et al. 1992), not f·R/a. Both of the two circles the cone holds are this far."""
+    sections = _circular_sections(ellipse, focal_px, image_size)
+    if not sections:
+        return math.nan
+    _, middle, radius = sections[0]
+    return float(np.linalg.norm(middle) * radius_mm / radius)
 
 
 def _circle_in_plane(points: NDArray[np.float64], normal: NDArray[np.float64], origin: NDArray[np.float64]
