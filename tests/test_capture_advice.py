@@ -4,6 +4,7 @@ photo's angles and azimuths, which part of 400–700 nm lands on the tracks, and
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -80,3 +81,18 @@ def test_a_capture_as_the_preset_says_with_the_range_on_the_tracks_points_at_the
     text = oblique_advice(preset, Scene(preset))
     assert text.startswith("all of 400–700 nm lands on the disc's tracks with the capture the photo shows")
     assert "cut off by the frame" in text and np.isfinite(capture_angles(Scene(preset))).all()
+
+
+@pytest.mark.parametrize("distance_mm,way", [(150.0, "further from"), (300.0, "closer to")])
+def test_a_near_axis_camera_too_near_or_too_far_is_told_which_way(distance_mm, way):
+    """cd-default's camera and lamp moved to 150 / 300 mm (tests/test_joint_estimate.py): even a
+    lamp at the lens leaves the short / long end of 400–700 nm off the tracks, so no lamp offset
+    helps (it said "within about 0 mm of the lens"); the advice names the end and the way to go."""
+    base = load_preset("cd-default")
+    preset = replace(base, camera=replace(base.camera, distance_mm=distance_mm, focal_length_mm=base.camera.focal_length_mm
+                                          * distance_mm / base.camera.distance_mm),
+                     light=replace(base.light, position_mm=(0.0, 0.0, distance_mm)))
+    text = coverage_advice(preset, Scene(preset))
+    assert f"move camera and lamp {way} the disc" in text and "within about 0 mm" not in text
+    lo, hi = (int(v) for v in re.search(r"leaves (\d+)–(\d+) nm", text).groups())
+    assert (lo == 400) == (way == "further from") and (hi == 700) == (way == "closer to")

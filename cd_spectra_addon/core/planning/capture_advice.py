@@ -70,14 +70,19 @@ def missing_nm(scene: Scene) -> list[tuple[int, int]]:
     return out
 
 
+def _lamp_at_lens(preset: Preset) -> Preset:
+    """``preset`` at REACH_SIDE px with its lamp on the lens's axis, at the preset's lamp height."""
+    base = preset.with_image_size(REACH_SIDE)
+    height = base.light.position_mm[2]
+    return replace(base, light=Light(position_mm=(0.0, 0.0, height), lobe_sigma=base.light.lobe_sigma,
+                                     intensity=base.light.intensity))
+
+
 @lru_cache(maxsize=16)
 def lamp_reach_mm(preset: Preset) -> float:
     """Largest distance of the lamp beside the lens (at the preset's lamp height) for which the
     first order still covers 400–700 nm on the tracks."""
-    base = preset.with_image_size(REACH_SIDE)
-    height = base.light.position_mm[2]
-    base = replace(base, light=Light(position_mm=(0.0, 0.0, height), lobe_sigma=base.light.lobe_sigma,
-                                     intensity=base.light.intensity))
+    base = _lamp_at_lens(preset)
     reach = 0.0
     for offset in np.arange(0.0, REACH_MAX_MM + 1e-9, REACH_STEP_MM):
         if coverage_400_700(Scene(base, Pose(light_offset_mm=(float(offset), 0.0)))) < REACH_COVERAGE:
@@ -132,6 +137,13 @@ def lamp_advice(preset: Preset, offset_mm: float | None) -> str:
     """A sentence saying where to put the lamp, with the distances of this capture."""
     reach = lamp_reach_mm(preset)
     dist = preset.camera.distance_mm
+    if reach == 0.0 and (missing := missing_nm(Scene(_lamp_at_lens(preset)))):
+        # No lamp position helps: at this distance the tracks' first order leaves the short end
+        # of 400–700 nm off the disc's tracks (camera too near) or the long end (too far).
+        way = "further from" if missing[0][0] <= VISIBLE_NM[0] else "closer to"
+        held = ", ".join(f"{a}–{b}" for a, b in missing)
+        return (f"with the camera {dist:.0f} mm above the disc even a lamp at the lens leaves {held} nm off the "
+                f"disc's tracks: move camera and lamp {way} the disc (see the capture guide)")
     if offset_mm is not None and offset_mm > reach + REACH_STEP_MM:
         return (f"move the lamp closer to the lens: it is about {offset_mm:.0f} mm from the lens axis, and only "
                 f"within about {reach:.0f} mm does the first order (400–700 nm) land on the disc's tracks with the "
@@ -330,7 +342,7 @@ def coverage_advice(preset: Preset, scene: Scene) -> str:
     """What to move when part of 400–700 nm misses the tracks, for the fitted ``scene``."""
     if not near_axis(preset):
         return oblique_advice(preset, scene)
-    offset = lamp_offset_mm(scene)
-    if offset > lamp_reach_mm(preset):
+    offset, reach = lamp_offset_mm(scene), lamp_reach_mm(preset)
+    if offset > reach or reach == 0.0:  # reach 0: the camera's distance is what to change
         return lamp_advice(preset, offset)
     return "the disc may be cut off by the frame, or the lamp and camera are too far off the disc's axis"
