@@ -114,3 +114,14 @@ def test_a_tripod_capture_far_from_its_preset_is_found_by_the_lamp_grid_and_its_
 
     assert error_nm(starts.ESCALATIONS) < 1.5
     assert error_nm(tuple(n for n in starts.ESCALATIONS if n not in ("lamp-grid", "tilted"))) > 5.0
+
+
+def test_the_fits_tiers_run_every_strategy_once_cheap_ones_first():
+    """fit.TIERS orders the strategies the fit runs; starts names them (CHEAP, ESCALATIONS): a
+    strategy added to one and not the other would never run, or run unnamed."""
+    from cd_spectra_addon.core.pose.fit import TIERS
+
+    order = [name for tier in TIERS for name in tier]
+    assert sorted(order) == sorted(starts.STRATEGIES) and len(order) == len(set(order))
+    assert set(order[:len(starts.CHEAP)]) == set(starts.CHEAP)
+    assert set(order[len(starts.CHEAP):]) == set(starts.ESCALATIONS)
