@@ -144,29 +144,12 @@ def test_a_lit_disc_is_still_found_by_its_mask(rendered):
 @settings(max_examples=60, deadline=None)
 @given(focal=st.floats(300.0, 6000.0), distance=st.floats(120.0, 900.0), off=st.tuples(*[st.floats(-0.35, 0.35)] * 2),
        tilt=st.floats(0.0, 60.0), turn=st.floats(0.0, 360.0))
-def test_focal_from_outline_inverts_the_projection(focal, distance, off, tilt, turn):
+def test_an_outline_gives_back_its_circle_and_the_focal_length(focal, distance, off, tilt, turn):
     """A 60 mm circle anywhere in a 750 × 625 frame, turned up to 60°: its image gives back the
-    focal length (1e-6) and the distance; f·R/D would miss the major semi-axis off-centre."""
-    direction = np.array([off[0], off[1], -1.0])
-    direction /= np.linalg.norm(direction)
-    axis = np.cross(direction, [math.cos(math.radians(turn)), math.sin(math.radians(turn)), 0.0])
-    axis /= np.linalg.norm(axis)
-    t = math.radians(tilt)
-    normal = -direction * math.cos(t) + np.cross(axis, -direction) * math.sin(t)
-    image = project_circle(direction * distance, normal, RIM_MM, focal, (750, 625))
-    if image.minor_px < 2.0:
-        return
-    assert circle_distance_mm(image, RIM_MM, focal) == pytest.approx(distance, rel=1e-6)
-    assert focal_px_from_outline(image, RIM_MM, distance) == pytest.approx(focal, rel=1e-6)
-
-
-@settings(max_examples=60, deadline=None)
-@given(focal=st.floats(300.0, 6000.0), distance=st.floats(100.0, 900.0), off=st.tuples(*[st.floats(-0.35, 0.35)] * 2),
-       tilt=st.floats(0.0, 60.0), turn=st.floats(0.0, 360.0))
-def test_circle_poses_invert_the_projection(focal, distance, off, tilt, turn):
-    """One of the two poses an outline allows is the circle's own (centre and normal to 1e-4:
-    face-on, where the two merge, the normal is known to the square root of the conic's precision),
-    however near, oblique and off-centre; both face the camera and lie in front of it."""
+    focal length (1e-6) and the distance; f·R/D would miss the major semi-axis off-centre. One of
+    the two poses the outline allows is the circle's own (centre and normal to 1e-4: face-on,
+    where the two merge, the normal is known to the square root of the conic's precision), however
+    near, oblique and off-centre; both face the camera and lie in front of it."""
     direction = np.array([off[0], off[1], -1.0])
     direction /= np.linalg.norm(direction)
     axis = np.cross(direction, [math.cos(math.radians(turn)), math.sin(math.radians(turn)), 0.0])
@@ -177,6 +160,8 @@ def test_circle_poses_invert_the_projection(focal, distance, off, tilt, turn):
     image = project_circle(centre, normal, RIM_MM, focal, (750, 625))
     if image.minor_px < 2.0:
         return
+    assert circle_distance_mm(image, RIM_MM, focal) == pytest.approx(distance, rel=1e-6)
+    assert focal_px_from_outline(image, RIM_MM, distance) == pytest.approx(focal, rel=1e-6)
     poses = circle_poses(image, RIM_MM, focal, (750, 625))
     assert len(poses) == 2
     assert all(c[2] < 0 and n @ c < 0 and n @ n == pytest.approx(1.0) for c, n in poses)
