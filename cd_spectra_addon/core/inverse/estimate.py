@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..rendition.result import rendition as rendition_figures
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
-from .stages import (DIM_LEVEL_8BIT, profile_residual, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
+from .stages import (DIM_LEVEL_8BIT, profile_residual, relative_noise, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
                      spectrum)
 from ..calibration.calibration import (POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_check,
                                        calibration_warning, load_calibration)
@@ -167,11 +167,7 @@ def _bin_share(readout: Readout, mask: NDArray[np.bool_]) -> NDArray[np.float64]
 def _unexplained(readout: Readout, residual: float) -> float:
     """``residual`` (:func:`profile_residual`) beyond what the readout's noise explains: a dim or
     noisy photo's misfit is not a wrong capture."""
-    valid = readout.valid
-    if not np.any(valid):
-        return residual
-    top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
-    noise = NOISE_MARGIN * float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top
+    noise = NOISE_MARGIN * relative_noise(readout)
     return math.sqrt(max(residual * residual - noise * noise, 0.0))
 
 

@@ -131,7 +131,7 @@ __all__ = ["Posed", "Reading", "Spectrum", "pose_photo", "read_posed", "read_pho
            "tail_settings", "tailed",
            "focal_px_for", "focal_px_of", "focal_px_options", "EXIF_FOCAL_AGREEMENT", "physics_spd", "network_inputs",
            "covered_nm", "focal_px_from_photo",
-           "series_focal_px", "profile_residual", "sized_by_readout", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
+           "series_focal_px", "profile_residual", "relative_noise", "sized_by_readout", "MIN_RAINBOW_CONTRAST", "MIN_COVERAGE_NM", "MAX_SATURATED_SHARE", "DIM_LEVEL_8BIT"]
 
 
 @dataclass
@@ -395,6 +395,16 @@ def profile_residual(readout: Readout, matrix: NDArray[np.float64], spd: NDArray
     return float(np.sqrt(np.mean((scale * p - m) ** 2)) / max(float(np.max(np.abs(m))), 1e-300))
 
 
+def relative_noise(readout: Readout) -> float:
+    """RMS noise of the valid features relative to the largest, the scale of
+    :func:`profile_residual` (0 where none is valid): how much misfit the noise alone explains."""
+    valid = readout.valid
+    if not np.any(valid):
+        return 0.0
+    top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
+    return float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top
+
+
 def _with_size(posed: Posed, sigma: float) -> PoseFit:
     """The posed photo's fit with the lamp of size ``sigma`` (the same disc, camera and lamp)."""
     fit = posed.fit
@@ -435,8 +445,7 @@ def sized_by_readout(posed: Posed) -> tuple[PoseFit, Reading | None]:
     valid = readout.valid
     if not np.any(valid):
         return posed.fit, reading0
-    top = max(float(np.max(np.abs(readout.values[valid]))), 1e-300)
-    noise = max(float(np.sqrt(np.mean(readout.noise[valid] ** 2))) / top, 1e-12)
+    noise = max(relative_noise(readout), 1e-12)
     height, width = posed.rgb.shape[:2]
 
     def misfit(matrix: NDArray[np.float64]) -> float:
