@@ -479,7 +479,7 @@ def _line_bases(ctx: StartContext) -> list[RelativePose]:
     at 0.004 of its energy unexplained; the valley followed from there ended at 0.0017 with λ₁
     4.0 nm off, from the colours' fit at 0.0024 with 0.9 nm — the coarse cost cannot rank those."""
     bases = [ctx.nominal()]
-    cheap = [s for s in ctx.found if s.strategy.split(" ")[0] not in ("lamp-grid", "tilted")]
+    cheap = [s for s in ctx.found if s.strategy.split(" ")[0] in CHEAP]
     if cheap:
         bases.append(cheap[0].capture)
     return bases
