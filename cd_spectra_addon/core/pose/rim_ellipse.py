@@ -231,11 +231,13 @@ def _image_conic(ellipse: Ellipse, image_size: tuple[int, int]) -> NDArray[np.fl
     return out
 
 
-def _circular_sections(ellipse: Ellipse, focal_px: float, image_size: tuple[int, int] | None
+def _circular_sections(ellipse: Ellipse, focal_px: float, image_size: tuple[int, int] | None,
+                       signs: tuple[float, ...] = (1.0, -1.0)
                        ) -> list[tuple[NDArray[np.float64], NDArray[np.float64], float]]:
     """The two circles the cone of rays through ``ellipse`` holds (Safaee-Rad et al. 1992): each
     plane's unit normal, and the centre and radius of its section, in front of the camera, at a
-    scale of the plane's choosing (similar triangles: times R / radius for a circle of radius R)."""
+    scale of the plane's choosing (similar triangles: times R / radius for a circle of radius R).
+    ``signs`` picks them (both are equally far: a distance needs one)."""
     size = image_size or ellipse.image_size
     if size is None:
         raise ValueError("the image size is needed: where the lens's axis meets the image")
@@ -255,7 +257,7 @@ def _circular_sections(ellipse: Ellipse, focal_px: float, image_size: tuple[int,
     rays = np.stack([px, py, np.full_like(px, -focal_px)], axis=1)
     out = []
     # a circular section's normal, in the cone's eigenbasis (e1, e2, e3) = columns (2, 1, 0)
-    for sign in (1.0, -1.0):
+    for sign in signs:
         normal = sign * evecs[:, 2] * math.sqrt((l1 - l2) / (l1 - l3)) + evecs[:, 0] * math.sqrt((l2 - l3) / (l1 - l3))
         normal /= np.linalg.norm(normal)
         along = rays @ normal
@@ -274,7 +276,7 @@ def circle_distance_mm(ellipse: Ellipse, radius_mm: float, focal_px: float,
     """Distance from the camera to the centre of a circle of ``radius_mm`` seen as ``ellipse``
     with ``focal_px``: the exact back-projection (the circular sections of the ellipse's cone,
     Safaee-Rad et al. 1992), not f·R/a. Both of the two circles the cone holds are this far."""
-    sections = _circular_sections(ellipse, focal_px, image_size)
+    sections = _circular_sections(ellipse, focal_px, image_size, signs=(1.0,))
     if not sections:
         return math.nan
     _, middle, radius = sections[0]
