@@ -51,6 +51,7 @@ from ..pose.lines import on_curve
 from ..pose.result import PoseFit
 from ..pose.rim_ellipse import disc_ellipse, focal_px_from_outline
 from ..readout.readout import Readout, extract_readout
+from ..spectrum.track_edges import dark_edges_dropped
 from ..spectrum.joint import JointSolve, edge_floors, joint_solve, usable
 from ..spectrum.tails import TailSettings, widen_std, with_tails
 from ..spectrum.solve import (LINE_ALLOWANCE, PRIOR_STRENGTH, SMOOTHNESS, GaussianPrior, Rows, blend_bands,
@@ -609,6 +610,10 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     else:
         measured = extract_readout(rgb - ambient if np.any(ambient) else rgb, excluded, scene, per_pixel)
     t2 = time.perf_counter()
+    response = bin_response(scene, measured) if response is None else response
+    matrix = feature_matrix(response, posed.camera)
+    gains = None if posed.calibration is None else posed.calibration.gains[..., None]
+    measured = dark_edges_dropped(measured, matrix if gains is None else matrix * gains, known_spd)
     readout = _with_gains(measured, posed.calibration)
     found = rainbow_found(fit)
     stretches = covered_nm(measured)
@@ -634,11 +639,9 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         advice = advice_for_photo(posed.preset, scene, found, rgb, excluded,
                                   posed.focal_px)
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
-    if response is None:
-        response = bin_response(scene, readout)
     t3 = time.perf_counter()
     return Reading(posed=posed, scene=scene, readout=readout, uncalibrated=measured, response=response,
-                   matrix=feature_matrix(response, posed.camera), ambient=ambient,
+                   matrix=matrix, ambient=ambient,
                    timing_ms={**posed.timing_ms, "readout": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 

@@ -56,6 +56,9 @@ class Readout:
     # (NB, 3) −1: the channel was clipped at the floor there (the true value is at most the
     # value), +1: at full scale (at least); 0 or None: a value. Only for clipped in-camera files.
     censored: NDArray[np.int8] | None = None
+    # (NB,) bins read from pixels within EDGE_MARGIN_MM of the tracks' edges (no others had enough
+    # weight there): whether those pixels lie on the tracks turns on the pose (:mod:`..spectrum.track_edges`).
+    edge_only: NDArray[np.bool_] | None = None
 
 
 @dataclass(frozen=True)
@@ -194,6 +197,10 @@ def extract_readout(
     valid = (seen >= MIN_BIN_WEIGHT) & (sat_frac < 0.5)
     values[~valid] = 0.0
     censored = None if clipped is None else _censored(clipped, px.index, b, weight * vis2, wv2)
+    edge_only = None
+    if np.any(edge):
+        on_edge = np.bincount(b, weights=weight * vis2 * edge, minlength=N_FEATURES)
+        edge_only = valid & (on_edge > 0.5 * wv2)
     return Readout(
         lambda_nm=FEATURE_LAMBDA_NM.copy(),
         values=values,
@@ -205,6 +212,7 @@ def extract_readout(
         pixel_bin=b,
         pixel_weight=weight,
         censored=censored,
+        edge_only=edge_only,
     )
 
 
