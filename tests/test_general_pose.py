@@ -118,3 +118,22 @@ def test_lamp_reach_and_advice_follow_the_geometry():
     assert "move the lamp closer" in text and "60 mm" in text
     nominal_scene, nominal = _capture(Pose())
     assert capture_advice.glint_px(nominal, np.zeros(nominal.shape[:2], bool)) is None  # a rainbow is no glint
+    clipped = np.zeros(image.shape[:2], bool)
+    r, c = np.unravel_index(int(np.argmax(image.sum(axis=-1))), clipped.shape)
+    clipped[r - 1:r + 2, c - 1:c + 2] = True  # the same glint, clipped: a solid spot
+    assert "60 mm" in capture_advice.advice_for_photo(scene.preset, scene, False, image, clipped,
+                                                      scene.preset.camera.focal_px)
+
+
+def test_pure_noise_gets_the_set_up_not_a_lamp_distance():
+    """An 8-bit photo of uniform noise has a channel at 255 in ~3.5 % of its pixels, scattered:
+    no clipped spot is a glint, so the advice is the set-up's, not a distance read off noise."""
+    from cd_spectra_addon.core.planning import capture_advice
+
+    preset = load_preset("cd-default")
+    noise = np.random.default_rng(7).integers(0, 256, (256, 256, 3)) / 255.0
+    saturated = np.any(noise >= 1.0, axis=-1)
+    assert capture_advice.glint_px(noise, saturated) is not None  # the brightest clipped pixel
+    assert capture_advice.glint_px(noise, saturated, solid=True) is None
+    text = capture_advice.advice_for_photo(preset, Scene(preset), False, noise, saturated, preset.camera.focal_px)
+    assert text == capture_advice.lamp_advice(preset, None)

@@ -98,14 +98,21 @@ def lamp_offset_mm(scene: Scene) -> float:
 
 
 GLINT_CONTRAST = 5.0  # an unclipped glint outshines the photo's 99.5th percentile this many times
+# A clipped glint told to the user is a solid spot: at least this share of its brightest pixel's
+# eight neighbours clipped too. A photo of pure noise (8-bit, ~3.5 % of its pixels with a channel
+# at 255) has clipped pixels everywhere, and its brightest one, with ~0.04 of its neighbours
+# clipped, was read as a glint: "move the lamp closer: it is about 40 mm from the lens axis".
+SOLID_GLINT = 0.5
 
 
-def glint_px(rgb: NDArray[np.float64], saturated: NDArray[np.bool_]) -> tuple[float, float] | None:
+def glint_px(rgb: NDArray[np.float64], saturated: NDArray[np.bool_], solid: bool = False
+             ) -> tuple[float, float] | None:
     """Centre (row, col) of the zero-order glint — the lamp's mirror image in the disc — or None.
 
     It is the brightest spot where that spot is clipped or outshines nearly all of the photo
     (a photo exposed for the glint leaves the rainbow dim). Its place gives the lamp's
-    direction even when the fit finds no rainbow."""
+    direction even when the fit finds no rainbow. ``solid``: a clipped spot counts only where
+    it is one (:data:`SOLID_GLINT`) — for advice, which has no fit to check it against."""
     lum = channel_sum(rgb)
     sat = np.asarray(saturated, dtype=bool)
     if np.any(sat):
@@ -117,6 +124,10 @@ def glint_px(rgb: NDArray[np.float64], saturated: NDArray[np.bool_]) -> tuple[fl
             return None
         spot = lum >= 0.5 * peak
     r0, c0 = np.unravel_index(int(np.argmax(lum)), lum.shape)
+    if solid and np.any(sat):
+        around = sat[max(r0 - 1, 0):r0 + 2, max(c0 - 1, 0):c0 + 2]
+        if int(np.sum(around)) - 1 < SOLID_GLINT * (around.size - 1):
+            return None
     rows, cols = np.nonzero(spot)
     near = np.hypot(rows - r0, cols - c0) <= 4.0
     return float(np.mean(rows[near])), float(np.mean(cols[near]))
@@ -160,7 +171,7 @@ def advice_for_photo(preset: Preset, scene: Scene, fit_trusted: bool, rgb: NDArr
     fitted angles against the preset's, or the preset's angles alone."""
     if not near_axis(preset):
         return oblique_advice(preset, scene if fit_trusted else None)
-    glint = glint_px(rgb, saturated)
+    glint = glint_px(rgb, saturated, solid=True)
     offset: float | None = None
     if glint is not None:
         height, width = np.asarray(rgb).shape[:2]
