@@ -155,3 +155,35 @@ def test_pixel_diffraction_in_chunks_is_the_one_pass_value_for_value(monkeypatch
     assert whole.index.size > 0
     for key in PixelDiffraction.__dataclass_fields__:
         assert np.array_equal(getattr(whole, key), getattr(chunked, key)), key
+
+
+def test_a_negative_median_is_never_skipped():
+    """The shortcut to a median below zero (a count) never skips one at or below −MIN_OFFSET."""
+    rng = np.random.default_rng(1)
+    for trial in range(2000):
+        n = int(rng.integers(1, 60))
+        flat = (rng.random((n, 3)) - rng.random()) * (1e-3, 3e-3, 1e-2)[trial % 3]
+        if trial % 5 == 0:
+            flat[:, 2] = -ambient.MIN_OFFSET
+        if np.any(np.median(flat, axis=0) <= -ambient.MIN_OFFSET):
+            assert ambient._below_zero(flat), trial
+
+
+def test_a_black_level_subtracted_too_far_is_added_back():
+    """A float photo whose dark parts read 2 % below zero (its black level subtracted too far):
+    the offset is measured on the disc's dark part, and the readout is the one the photo without
+    it gives. Non-negative codes keep the shortcut: no offset at all."""
+    scene = _zoomed("cd-default", 256)
+    camera = load_camera(DEFAULT_CAMERA)
+    img, _ = photo.expose(photo.linear_photo(render_cube(scene, supersample=1), np.ones(81), camera), 0.9,
+                          photo.track_mask(scene))
+    rgb = photo.add_noise(img, 0.005, np.random.default_rng(2))
+    none = np.zeros(rgb.shape[:2], bool)
+    assert not np.any(dark_offset(rgb, scene, none))
+    low = dark_offset(rgb - 0.02, scene, none)
+    assert np.allclose(low, -0.02, atol=0.002)
+    want = extract_readout(rgb, none, scene)
+    got = extract_readout(rgb - 0.02 - low, none, scene)
+    top = np.max(want.values)
+    assert np.max(np.abs(got.values - want.values)) < 0.01 * top
+    assert not np.any(dark_offset(np.clip(rgb - 0.02, 0.0, None), scene, none) < 0)  # clipped codes: nothing to add

@@ -248,13 +248,18 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"{100 * bad:.1f}% of the rainbow's pixels are not numbers (NaN/Inf) and were ignored — "
                         "check the raw conversion or the EXR export")
         score *= max(0.2, 1.0 - 2.0 * bad)
-    ambient = float(np.max(analysis.ambient))
-    stats["ambient_offset"] = ambient
+    ambient, below = float(np.max(analysis.ambient)), float(np.min(analysis.ambient))
+    stats["ambient_offset"] = ambient if ambient >= -below else below
     if ambient >= AMBIENT_WARN:
         warnings.append(f"room light (or the camera's black level) adds {100 * ambient:.1f}% of full scale to the "
                         "whole photo: it was measured on the dark part of the disc and subtracted — a darker room "
                         "is more accurate")
         score *= max(0.5, 1.0 - 5.0 * ambient)
+    elif below <= -AMBIENT_WARN:
+        warnings.append(f"the photo's dark parts read {100 * -below:.1f}% of full scale below zero (a black level "
+                        "subtracted too far, or twice): it was measured on the dark part of the disc and added back "
+                        "— check the raw conversion's black level")
+        score *= max(0.5, 1.0 + 5.0 * below)
     # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
     peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
     if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
