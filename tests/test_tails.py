@@ -17,8 +17,8 @@ from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd, planck_spd
 from cd_spectra_addon.core.spectrum import solve
 from cd_spectra_addon.core.spectrum.model import load_model
-from cd_spectra_addon.core.spectrum.tails import (DEFAULT_SETTINGS, BLIND_STD, blind_weight, planck_fit,
-                                                  thermal_weight, widen_std, with_tails)
+from cd_spectra_addon.core.spectrum.tails import (DEFAULT_SETTINGS, BLIND_STD, blind_weight, joined_tails,
+                                                  planck_fit, thermal_weight, widen_std, with_tails)
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -121,6 +121,36 @@ def test_the_tails_join_the_estimate_without_a_step(capture, model):
     est, rows = _solve(capture, model, truth)
     out = with_tails(est, rows, tail_settings(model))[0]
     assert np.max(np.abs(np.diff(out))) < 2 * np.max(np.abs(np.diff(truth))) + 0.01
+
+
+def test_the_join_hands_each_blind_band_to_the_planck_curve_at_the_estimates_level():
+    """Where the camera sees the SPD is kept; into each blind band it becomes the Planck curve's
+    shape, scaled to the SPD's level in that side's anchor band (a Planck SPD joins itself)."""
+    p = planck_spd(2856.0)
+    assert np.allclose(joined_tails(p, 3.0 * p)[0], p)
+    flat = np.full(81, 0.5)
+    out, tails = joined_tails(flat, p)
+    b = blind_weight()
+    assert np.array_equal(out[b == 0], flat[b == 0])
+    red = LAM >= 700
+    assert np.allclose(out[red] / out[red][0], p[red] / p[red][0])  # Planck's rise beyond 700 nm
+    assert np.all(tails[b == 0][(LAM[b == 0] > 450) & (LAM[b == 0] < 620)] == 0)
+    assert np.array_equal(joined_tails(flat, p, 0.0)[0], flat)
+
+
+def test_the_planck_ceiling_of_a_planck_lamp_is_exact():
+    """The bench's ceiling of Planck tails (training.evaluation.tails): a Planck lamp's own
+    curve joins it without error and its ratio to the fit is 1 at every wavelength; a lamp
+    whose red falls below its Planck curve reads that shortfall as a ratio under 1."""
+    from training.evaluation.lamps import Lamp
+    from training.evaluation.tails import CEILING_RATIO_NM, planck_ceiling
+    a = planck_spd(2856.0)
+    drooping = a * np.where(LAM > 660, 1.0 - 0.002 * (LAM - 660), 1.0)
+    out = planck_ceiling([Lamp("A", "incandescent", "test", a), Lamp("droop", "halogen", "test", drooping)])
+    assert out["incandescent"]["mae_380_780"] < 2e-3
+    assert all(abs(v - 1) < 0.01 for v in out["incandescent"]["ratio_median"].values())
+    assert out["halogen"]["ratio_median"][str(CEILING_RATIO_NM[-1])] == pytest.approx(1 - 0.002 * 120, abs=0.02)
+    assert out["halogen"]["mae_380_780"] > 0.05
 
 
 def test_spd_std_is_wider_beyond_the_camera(capture, model):

@@ -39,7 +39,8 @@ from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from cd_spectra_addon.core.spectrum.model import SpectralModel, load_model
-from cd_spectra_addon.core.spectrum.tails import blind_weight
+from cd_spectra_addon.core.spectra.illuminants import planck
+from cd_spectra_addon.core.spectrum.tails import blind_weight, joined_tails
 
 from training.evaluation.evaluate import Condition, Photos
 from training.evaluation.lamps import Lamp, all_lamps
@@ -111,6 +112,43 @@ def run(lamps: list[Lamp], models: dict[str, SpectralModel], engine: str, size: 
     return rows
 
 
+CEILING_SEEN_NM = (430.0, 660.0)  # where the camera sees (blind_weight is 0 inside)
+CEILING_RATIO_NM = (400, 450, 550, 650, 700, 740, 780)
+
+
+def planck_ceiling(lamps: list[Lamp]) -> dict[str, Any]:
+    """What Planck tails can do at best on these lamps: each true SPD's own best Planck curve
+    over 430–660 nm (least squares, free scale, temperatures 1000–25000 K), joined to the true
+    SPD as the product joins its tails (``joined_tails``, fully thermal) and scored as the
+    estimates are; with the true SPD over that curve at a few wavelengths (median over lamps).
+    A ceiling for any tail from physics: the photo never sees more than the true SPD there."""
+    lam = WAVELENGTHS_NM
+    seen = (lam >= CEILING_SEEN_NM[0]) & (lam <= CEILING_SEEN_NM[1])
+    temps = np.exp(np.linspace(np.log(1000.0), np.log(25000.0), 961))
+    curves = planck(lam, temps[:, None])  # (temperatures, grid)
+    at = [int(np.argmin(np.abs(lam - w))) for w in CEILING_RATIO_NM]
+    groups: dict[str, list] = defaultdict(list)
+    for lamp in lamps:
+        if lamp.family not in THERMAL:
+            continue
+        s = np.asarray(lamp.spd, dtype=np.float64) / float(np.max(lamp.spd))
+        c = curves[:, seen]
+        k = (c @ s[seen]) / np.einsum("ij,ij->i", c, c)
+        best = int(np.argmin(np.sum((s[seen] - k[:, None] * c) ** 2, axis=1)))
+        fit = k[best] * curves[best]
+        m = compare_spds(joined_tails(s, fit)[0], s)
+        groups[lamp.family].append((float(m["mae_400_700"]), float(m["mae_380_780"]), float(temps[best]),
+                                    [float(s[i] / fit[i]) for i in at]))
+    out = {}
+    for fam, rs in groups.items():
+        out[fam] = {"n": len(rs), "mae_400_700": float(np.mean([r[0] for r in rs])),
+                    "mae_380_780": float(np.mean([r[1] for r in rs])),
+                    "temperature_k_median": float(np.median([r[2] for r in rs])),
+                    "ratio_median": dict(zip(map(str, CEILING_RATIO_NM), np.median([r[3] for r in rs], axis=0).tolist())),
+                    "ratio_780_range": [float(np.min([r[3][-1] for r in rs])), float(np.max([r[3][-1] for r in rs]))]}
+    return out
+
+
 def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     groups: dict[str, list] = defaultdict(list)
     for r in rows:
@@ -160,6 +198,25 @@ def report(result: dict[str, Any]) -> str:
     if "real" in result:
         lines += [f"## Real lamps ({result['real']['all']['n']}{result.get('real_subset', '')})", ""]
         lines += _table(result["real"], "before → after")
+    if result.get("ceiling"):
+        lines += ["## What Planck tails can do on the real thermal lamps", "",
+                  "Each real lamp's true SPD with its blind tails replaced by its own best Planck curve over 430–660 nm "
+                  "(where the camera sees), joined as the product joins its tails: what Planck tails read when "
+                  "everything the camera sees is right. Beside it the shipped model (after) on the photos above, and "
+                  "the true SPD over that Planck curve (median over the family's lamps).", "",
+                  "| family | n | Planck tails from the true SPD: MAE 400–700 / 380–780 | shipped model: MAE 400–700 / 380–780 | "
+                  "fitted T (median) | true / Planck at " + ", ".join(f"{w}" for w in CEILING_RATIO_NM) + " nm | at 780 nm (range) |",
+                  "|---|---|---|---|---|---|---|"]
+        for fam, c in sorted(result["ceiling"].items()):
+            shipped = result.get("real", {}).get(f"family {fam}", {}).get("model/after")
+            ship = f"{shipped['mae_400_700']:.4f} / {shipped['mae_380_780']:.4f}" if shipped else "–"
+            ratios = " / ".join(f"{v:.2f}" for v in c["ratio_median"].values())
+            lines.append(f"| {fam} | {c['n']} | {c['mae_400_700']:.4f} / {c['mae_380_780']:.4f} | {ship} | "
+                         f"{c['temperature_k_median']:.0f} K | {ratios} | {c['ratio_780_range'][0]:.2f}–"
+                         f"{c['ratio_780_range'][1]:.2f} |")
+        lines += ["", "Where the true SPD keeps to its Planck curve (CIE A: ratio 1.00 everywhere) the join costs "
+                  "nothing; where it falls below it beyond 700 nm the Planck tail overshoots there, whatever the "
+                  "photo. Measured, not chosen on: nothing in the product reads these figures.", ""]
     for key in ("synthetic", "real"):
         if key in result:
             a = result[key]["all"]["model/after"]
@@ -196,6 +253,7 @@ def main(argv: list[str] | None = None) -> int:
         result["real_subset"] = "" if args.every == 1 else f", every {args.every}th of the 312"
         print(f"real: {len(lamps)} lamps", flush=True)
         result["real"] = summarise(run(lamps, models, args.engine, args.size))
+        result["ceiling"] = planck_ceiling(lamps)
     result["seconds"] = time.perf_counter() - start
     text = report(result)
     print(text)

@@ -47,7 +47,7 @@ TEMPERATURES_K = np.exp(np.linspace(np.log(1000.0), np.log(25000.0), 121))
 BLIND_STD = 0.1
 
 __all__ = ["TailSettings", "DEFAULT_SETTINGS", "PlanckFit", "planck_fit", "blind_weight", "thermal_weight",
-           "with_tails", "widen_std", "VIOLET_RAMP_NM", "RED_RAMP_NM"]
+           "with_tails", "joined_tails", "widen_std", "VIOLET_RAMP_NM", "RED_RAMP_NM"]
 
 
 @dataclass(frozen=True)
@@ -212,21 +212,29 @@ def with_tails(spd: NDArray[np.float64], rows: Rows, settings: TailSettings | No
     pred = spectral @ spd
     s = float(pred @ rows.y) / max(float(pred @ pred), 1e-300)
     e = spd * s if s > 0 else spd * (float(fit.spd.max()) / peak)
-    lam = WAVELENGTHS_NM
-    out = e.copy()
-    tails = np.zeros_like(e)
-    for ramp, anchor in ((VIOLET_RAMP_NM, VIOLET_ANCHOR_NM), (RED_RAMP_NM, RED_ANCHOR_NM)):
-        side = (lam <= ramp[0]) if ramp[1] < ramp[0] else (lam >= ramp[0])
-        sel = (lam >= anchor[0]) & (lam <= anchor[1])
-        p = fit.spd[sel]
-        k = float(p @ e[sel]) / max(float(p @ p), 1e-300)
-        tails[side] = (k if k > 0 else 1.0) * fit.spd[side]
-    w = q * blind_weight()
-    out = (1.0 - w) * e + w * tails
+    out, tails = joined_tails(e, fit.spd, q)
     top = float(out.max())
     if not top > 0:
         return spd / peak, None, fit, 0.0
     return out / top, tails / top, fit, q
+
+
+def joined_tails(spd: NDArray[np.float64], planck_spd: NDArray[np.float64], weight: float = 1.0
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``spd`` with each blind tail handed over (``weight`` × :func:`blind_weight`) to the Planck
+    curve's shape at the level ``spd`` has in that side's anchor band; returns (the joined SPD,
+    the two tails at that scale, 0 where the camera sees). One join for the product and for the
+    bench's ceiling of Planck tails (training.evaluation.tails)."""
+    lam = WAVELENGTHS_NM
+    tails = np.zeros_like(spd)
+    for ramp, anchor in ((VIOLET_RAMP_NM, VIOLET_ANCHOR_NM), (RED_RAMP_NM, RED_ANCHOR_NM)):
+        side = (lam <= ramp[0]) if ramp[1] < ramp[0] else (lam >= ramp[0])
+        sel = (lam >= anchor[0]) & (lam <= anchor[1])
+        p = planck_spd[sel]
+        k = float(p @ spd[sel]) / max(float(p @ p), 1e-300)
+        tails[side] = (k if k > 0 else 1.0) * planck_spd[side]
+    w = weight * blind_weight()
+    return (1.0 - w) * spd + w * tails, tails
 
 
 def widen_std(std: NDArray[np.float64], spd: NDArray[np.float64], planck_tail: NDArray[np.float64] | None,
