@@ -44,7 +44,7 @@ from ..scene.relative_pose import (LAMP_DISTANCE_PARAM, N_PARAMS, SIGMA_PARAM, R
 from .result import FIT_STEP_NM, ZERO_ORDER_SIGMAS, PoseFit, colour_blur_nm, consistency, expected_colours
 from .lines import keeps_lines, line_agreement
 from .rim_ellipse import Ellipse, disc_base, disc_ellipse, outline_mismatch, project_circle
-from .self_consistency import ProfileGrid, RayGeometry, SelfConsistency, footprint_v_span
+from .self_consistency import ProfileGrid, RayGeometry, SelfConsistency, footprint_v_span, profile_spd
 from .starts import CHEAP, ESCALATIONS, STRATEGIES, Start, StartContext
 
 __all__ = ["fit_pose", "COARSE_SIDE", "STAGES"]
@@ -633,6 +633,9 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
     finished = []
     for f in finalists:
         p = problem(f.capture, "fine", STAGES[1])
+        if LAMP_COLOURS and own_colours and sensitivities is not None and not f.start.held:
+            p = _lamp_coloured(p, f.capture, sample_for("fine"), preset, sensitivities,
+                               LAMP_WEIGHT_OBLIQUE if oblique else STAGES[1][1])
         if f.start.held:
             x, cost = held_fit(p, f.capture, np.zeros(N_PARAMS), 1)
         else:
@@ -682,6 +685,39 @@ def fit_pose(rgb: NDArray[np.floating], preset: Preset, focal_px: float,
 SIZE_FACTORS = (0.35, 0.6, 1.7, 3.0)
 SIZE_GAIN = 0.7
 SIZE_STAGE = (STAGES[1][0], 1.0)  # judged with the camera's colour at full weight: the blur is in the colour
+
+
+# The colours the coarse stage expects are a flat spectrum's under the lobe's blur; a narrow band
+# (a blue LED 25 nm wide, a white LED's pump, a phosphor line) lights a pixel at λ₁ from its
+# bright side, so its colour is that of a wavelength nearer the band's peak, and the fit slid the
+# capture to match: tripod-oblique's nominal photo of a 460 nm LED read λ₁ 3.3 nm off
+# (tests/test_lamp_colours.py), an LSPDD blue LED Δu'v' 0.026 where the true capture reads 0.005.
+# The fine stage expects the lamp's own light under the blur, its spectrum as the fine level's
+# profile at the coarse fit shows it (:func:`.self_consistency.profile_spd`). Only with the
+# camera's own sensitivities (the generic profile's colours are not the camera's). An oblique
+# set-up weighs these colours fully, as its coarse stage does: there the colour is what pins the
+# wavelength axis, and it is no longer a flat spectrum's guess. Chosen on synthetic spectra (24 of
+# the prior's families per set-up, nominal and combined captures, dev runs): as good as a fine fit
+# followed by a lamp-coloured one and without its cost; weight 1 against the fine stage's 0.3 read
+# the distant lamp's nominal Δu'v' 0.0017 against 0.0023 and tripod's combined 0.0011 against
+# 0.0013. A near-axis set-up keeps 0.3: its rings pin the geometry, weight 1 helped there on one
+# photo of 24 and tilted a 192 px disc's fit 1.2° off where 0.3 reads 0.8°
+# (tests/test_pose_starts.py).
+LAMP_COLOURS = True
+LAMP_WEIGHT_OBLIQUE = 1.0
+
+
+def _lamp_coloured(p: _Problem, rel: RelativePose, sample: _Sample, preset: Preset,
+                   sensitivities: NDArray[np.float64], weight: float) -> _Problem:
+    """The fine problem ``p`` around ``rel`` with the colours of the lamp's light as its profile
+    at ``rel`` shows it, at ``weight`` (see :data:`LAMP_COLOURS`); ``p`` itself where the
+    profile shows none."""
+    blur = round(colour_blur_nm(preset, rel.lobe_sigma, sample.level.level_focal), 1)
+    spd = profile_spd(p.objective.profile_at(rel), p.objective.grid, sensitivities, blur)
+    if spd is None:
+        return p
+    grid = ProfileGrid.with_camera(*GRID_NM, STAGES[1][0], sensitivities, blur, weight, spd=spd)
+    return _Problem(sample, rel, preset, grid, p.geometry)
 
 
 def _through_wide_lobes(problem_at, start: Start) -> tuple[Start, int]:

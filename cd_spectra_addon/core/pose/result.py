@@ -25,7 +25,7 @@ FIT_STEP_NM = 2.0
 COLOUR_BAND_NM = (400.0, 750.0)  # λ₁ where only the first order shows (the second starts at 760 nm)
 ZERO_ORDER_SIGMAS = 6.0  # the mirror glint's lobe, in lamp sizes, left out of the fit
 
-__all__ = ["PoseFit", "consistency", "expected_colours", "colour_blur_nm", "glint_mask", "FIT_STEP_NM",
+__all__ = ["PoseFit", "consistency", "camera_colours", "unit_colours", "expected_colours", "colour_blur_nm", "COLOUR_BAND_NM", "glint_mask", "FIT_STEP_NM",
            "ZERO_ORDER_SIGMAS", "contrast"]
 
 
@@ -138,17 +138,38 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
     return 1.0 - explained / energy
 
 
-def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float) -> NDArray[np.float64]:
-    """Unit camera colour per fit bin of width ``step_nm``: the sensitivities blurred by the
-    lobe and the pixel footprint (``blur_nm``, Gaussian std); NaN outside COLOUR_BAND_NM."""
+def camera_colours(lambda1_nm: NDArray[np.float64], sensitivities: NDArray[np.float64],
+                   blur_nm: float | NDArray[np.float64], spd: NDArray[np.float64] | None = None
+                   ) -> NDArray[np.float64]:
+    """The camera's RGB (not normalised) of the light a pixel at each ``lambda1_nm`` gets: the
+    lamp's ``spd`` (on the product grid; flat without one) times the sensitivities, blurred by the
+    lobe and the pixel footprint (Gaussian std ``blur_nm``, one or one per λ₁). Where the lamp's
+    spectrum is steep within the blur (a narrow LED band, a line) the pixel's colour is that of
+    the bright side, not of λ₁ itself."""
+    lam = np.asarray(lambda1_nm, dtype=np.float64)[:, None]
+    s = np.asarray(blur_nm, dtype=np.float64).reshape(-1, 1) if np.ndim(blur_nm) else float(blur_nm)
+    kernel = np.exp(-0.5 * ((lam - WAVELENGTHS_NM[None, :]) / s) ** 2)
+    sens = np.asarray(sensitivities, dtype=np.float64)
+    if spd is not None:
+        sens = sens * np.asarray(spd, dtype=np.float64)[:, None]
+    return kernel @ sens
+
+
+def unit_colours(rgb: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows of ``rgb`` scaled to length 1; NaN rows where there is no colour to speak of."""
+    norm = np.linalg.norm(rgb, axis=1, keepdims=True)
+    return np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
+
+
+def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float,
+                     spd: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Unit camera colour per fit bin of width ``step_nm`` (:func:`camera_colours`, blurred by
+    the lobe and the pixel footprint ``blur_nm``, the lamp's ``spd`` where known); NaN outside
+    COLOUR_BAND_NM."""
     lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
     n_bins = int(round(N_FEATURES * FEATURE_STEP_NM / step_nm))
     centres = lam0 + (np.arange(n_bins) + 0.5) * step_nm
-    s = max(float(blur_nm), 1.0)
-    kernel = np.exp(-0.5 * ((centres[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
-    rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
-    norm = np.linalg.norm(rgb, axis=1, keepdims=True)
-    out = np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
+    out = unit_colours(camera_colours(centres, sensitivities, max(float(blur_nm), 1.0), spd))
     out[(centres < COLOUR_BAND_NM[0]) | (centres > COLOUR_BAND_NM[1])] = np.nan
     return out
 

@@ -29,8 +29,8 @@ from ..scene.capture import Disc
 from ..scene.kernel import DERIVATIVE_CHUNK, Diffraction, camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
+from .result import COLOUR_BAND_NM, camera_colours, unit_colours
 
-COLOUR_BAND_NM = (400.0, 750.0)  # λ₁ where only the first order shows (the second starts at 760 nm)
 SECOND_ORDER_NM = (800.0, 1140.0)  # λ₁ where only the second order of 400–570 nm shows (the third starts at 1140)
 TAPER_NM = 10.0
 TINY_AMPLITUDE = 1e-100  # below this the squared weights approach the denormals
@@ -43,7 +43,7 @@ RIDGE = 1e-9  # relative to the largest node weight: nodes without pixels stay d
 # line (a jump of P over one node) a thousandth of its own weight.
 SMOOTH = 1e-3
 
-__all__ = ["ProfileGrid", "profile_residuals", "solve_tridiagonal", "SelfConsistency", "TINY_AMPLITUDE",
+__all__ = ["ProfileGrid", "profile_residuals", "profile_spd", "solve_tridiagonal", "SelfConsistency", "TINY_AMPLITUDE",
            "footprint_v_span"]
 
 
@@ -81,11 +81,15 @@ class ProfileGrid:
 
     @classmethod
     def with_camera(cls, lo_nm: float, hi_nm: float, step_nm: float, sensitivities: NDArray[np.float64] | None,
-                    blur_nm: float, colour_weight: float = 1.0) -> "ProfileGrid":
+                    blur_nm: float, colour_weight: float = 1.0, spd: NDArray[np.float64] | None = None
+                    ) -> "ProfileGrid":
         """A grid whose nodes carry the camera's unit colour at their λ (blurred by the lobe and
         the pixel, Gaussian std ``blur_nm``) within COLOUR_BAND_NM, and at λ/2 where only the
         second order shows (SECOND_ORDER_NM); free elsewhere. Without the second order's colour
-        a streak could be explained as second order with any colour (a fit 290 nm off won)."""
+        a streak could be explained as second order with any colour (a fit 290 nm off won).
+        ``spd`` (on the product grid): the lamp's light under that blur instead of a flat
+        spectrum's — where the lamp's spectrum is steep within the blur (a narrow LED band, a
+        line) a pixel at λ₁ gets its colour from the bright side, not from λ₁ itself."""
         grid = cls(lo_nm, hi_nm, step_nm, colour_weight=colour_weight)
         if sensitivities is not None:
             nodes = grid.nodes_nm
@@ -93,14 +97,37 @@ class ProfileGrid:
             second = (nodes >= SECOND_ORDER_NM[0]) & (nodes <= SECOND_ORDER_NM[1])
             lam = np.where(second, nodes / 2.0, nodes)
             blur = np.where(second, blur_nm / 2.0, blur_nm)
-            s = np.maximum(np.maximum(blur, 1.0), 0.5 * step_nm)[:, None]
-            kernel = np.exp(-0.5 * ((lam[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
-            rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
-            norm = np.linalg.norm(rgb, axis=1, keepdims=True)
-            colour = np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
+            colour = unit_colours(camera_colours(lam, sensitivities, np.maximum(np.maximum(blur, 1.0), 0.5 * step_nm),
+                                                 spd))
             colour[~(first | second)] = np.nan
             grid.colour = colour
         return grid
+
+
+# Where the lamp's spectrum as a profile shows it is dark, its colours are a flat spectrum's: a
+# floor of this share of its brightest.
+SPD_FLOOR = 0.01
+
+
+def profile_spd(profile: NDArray[np.float64], grid: ProfileGrid, sensitivities: NDArray[np.float64],
+                blur_nm: float) -> NDArray[np.float64] | None:
+    """The lamp's SPD on the product grid (peak 1, blurred by the lobe) as a fitted λ₁ profile
+    shows it: each first-order node's colour projected on the camera's colour at its λ under a
+    flat spectrum, the same blur as :meth:`ProfileGrid.with_camera`'s; None where it shows no
+    light. What the colours of a second fit expect (``with_camera(spd=…)``)."""
+    nodes = grid.nodes_nm
+    first = (nodes >= COLOUR_BAND_NM[0]) & (nodes <= COLOUR_BAND_NM[1])
+    if np.count_nonzero(first) < 2:
+        return None
+    rgb = camera_colours(nodes[first], sensitivities, max(float(blur_nm), 1.0, 0.5 * grid.step))
+    norm2 = np.sum(rgb * rgb, axis=1)
+    level = np.divide(np.sum(profile[first] * rgb, axis=1), norm2, out=np.zeros(norm2.size), where=norm2 > 1e-24)
+    level = np.maximum(np.nan_to_num(level, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+    peak = float(np.max(level))
+    if not peak > 0:
+        return None
+    spd = np.interp(WAVELENGTHS_NM, nodes[first], level / peak)
+    return spd + SPD_FLOOR
 
 
 def solve_tridiagonal(diag: NDArray[np.float64], off: NDArray[np.float64], rhs: NDArray[np.float64]
@@ -404,6 +431,11 @@ class SelfConsistency:
 
     def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         return self.residuals_at(self.pose_of(x))
+
+    def profile_at(self, rel: RelativePose) -> NDArray[np.float64]:
+        """The fitted λ₁ profile (nodes × RGB, the sample's units) of the capture ``rel``."""
+        lam, amp, _ = self._pixels(rel)
+        return _Fit(self.values, lam, amp, self.grid).profile
 
     def jacobian(self, x: NDArray[np.float64], free: NDArray[np.int64], step: float = 1e-6
                  ) -> NDArray[np.float64]:

@@ -1,0 +1,98 @@
+"""The colours a pose fit expects are the lamp's light under the lobe's blur (issue 21).
+
+A pixel at λ₁ gathers the lamp's light over the lobe's blur (≈ 5 nm at the presets' lamp size).
+Under a flat spectrum its colour is the camera's at λ₁; under a narrow band (a blue LED 25 nm
+wide, a white LED's pump) a pixel on the band's flank gets most of its light from the bright
+side, so its colour is that of a wavelength nearer the peak. A fit that expects flat-spectrum
+colours slides the capture to match: the fine stage expects the lamp's own colours, its spectrum
+as the coarse fit's profile shows it (core.pose.fit._lamp_coloured).
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from cd_spectra_addon.core.pose import fit as pose_fit
+from cd_spectra_addon.core.pose.result import camera_colours, unit_colours
+from cd_spectra_addon.core.pose.self_consistency import SPD_FLOOR, ProfileGrid, profile_spd
+from cd_spectra_addon.core.scene.capture import Scene, load_preset
+from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
+from training.simulation import photo
+from training.simulation.render_numpy import render_cube
+
+CAMERA = load_camera(DEFAULT_CAMERA)
+LAM = WAVELENGTHS_NM
+BLUE_LED = np.exp(-0.5 * ((LAM - 460.0) / 10.0) ** 2)  # a blue LED's band (25 nm wide)
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip(a @ b / np.linalg.norm(a) / np.linalg.norm(b), -1.0, 1.0))))
+
+
+def test_a_flat_lamp_keeps_the_cameras_own_colours():
+    nodes = np.arange(400.0, 700.0, 3.0)
+    assert np.allclose(camera_colours(nodes, CAMERA.sensitivities, 5.0, np.ones(LAM.size)),
+                       camera_colours(nodes, CAMERA.sensitivities, 5.0))
+
+
+@pytest.mark.parametrize("flank", [440.0, 480.0])
+def test_a_narrow_band_lights_its_flanks_in_its_peaks_colour(flank):
+    """On either flank of a 460 nm band a pixel's colour lies nearer the peak's than the camera's
+    own colour at the flank does (by little below the peak, where the camera's colour barely
+    turns; by degrees above it, where green comes in)."""
+    sens = CAMERA.sensitivities
+    peak = camera_colours(np.array([460.0]), sens, 5.0)[0]
+    flat = camera_colours(np.array([flank]), sens, 5.0)[0]
+    lit = camera_colours(np.array([flank]), sens, 5.0, BLUE_LED)[0]
+    assert _angle(lit, peak) < _angle(flat, peak) - (1.0 if flank > 460 else 0.1)
+
+
+def test_the_profile_shows_the_lamps_spectrum():
+    """A profile whose nodes carry the band's light (what a fit at the true capture finds) gives
+    the band back: its peak within a node, dark (the floor) 60 nm away."""
+    grid = ProfileGrid(300.0, 2500.0, 3.0)
+    profile = np.zeros((grid.size, 3))
+    first = (grid.nodes_nm >= 400) & (grid.nodes_nm <= 750)
+    profile[first] = 2.5 * camera_colours(grid.nodes_nm[first], CAMERA.sensitivities, 5.0, BLUE_LED)
+    spd = profile_spd(profile, grid, CAMERA.sensitivities, 5.0)
+    assert abs(LAM[np.argmax(spd)] - 460.0) <= 3.0
+    assert spd.max() == pytest.approx(1.0 + SPD_FLOOR, abs=0.01)
+    assert np.all(spd[LAM >= 520] < 2 * SPD_FLOOR)
+    assert profile_spd(np.zeros_like(profile), grid, CAMERA.sensitivities, 5.0) is None
+
+
+def test_the_lamps_colours_are_unit_rows_where_it_shows_light():
+    grid = ProfileGrid.with_camera(300.0, 2500.0, 3.0, CAMERA.sensitivities, 5.0, 1.0, spd=BLUE_LED + SPD_FLOOR)
+    c = grid.colour[~np.isnan(grid.colour[:, 0])]
+    assert np.allclose(np.linalg.norm(c, axis=1), 1.0)
+    assert np.all(np.isnan(unit_colours(np.zeros((2, 3)))))
+
+
+@pytest.mark.slow
+def test_a_blue_leds_capture_is_fitted_where_its_colours_say(monkeypatch):
+    """tripod-oblique's nominal photo of a 460 nm LED (no pose error; the disc 800 px across): the
+    flat-spectrum colours slide the fit's wavelengths 3 nm off; the lamp's own colours in the
+    fine stage take back at least 40 % of that (3.3 → 1.2 nm when written)."""
+    preset = load_preset("tripod-oblique").with_image_size(1024)
+    preset = replace(preset, camera=replace(preset.camera, focal_length_mm=preset.camera.focal_length_mm * 3.15))
+    scene = Scene(preset)
+    cube = render_cube(scene, supersample=2)
+    image, _ = photo.expose(photo.linear_photo(cube, BLUE_LED, CAMERA), 1.0, photo.track_mask(scene))
+    image = np.clip(photo.add_noise(image, 0.01, np.random.default_rng(5)), 0.0, 1.0)
+    truth = pixel_diffraction(scene)
+    sel = truth.on_tracks & (truth.visibility > 0.3) & (truth.lambda1_nm > 430) & (truth.lambda1_nm < 500)
+
+    def wavelength_error() -> float:
+        fitted = pose_fit.fit_pose(image, preset, preset.camera.focal_px, sensitivities=CAMERA.sensitivities)
+        got = pixel_diffraction(fitted.known_scene, truth.index[sel])
+        keep = np.isin(truth.index[sel], got.index)
+        return float(np.mean(np.abs(got.lambda1_nm - truth.lambda1_nm[sel][keep])))
+
+    lamp_coloured = wavelength_error()
+    monkeypatch.setattr(pose_fit, "LAMP_COLOURS", False)
+    flat = wavelength_error()
+    assert flat > 2.0  # what the lamp's colours are for: without them this photo reads 3.3 nm off
+    assert lamp_coloured < 0.6 * flat
