@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from cd_spectra_addon.core.pose import fit as pose_fit
-from cd_spectra_addon.core.pose.result import camera_colours, unit_colours
+from cd_spectra_addon.core.spectra.cameras import camera_colours, unit_colours
 from cd_spectra_addon.core.pose.self_consistency import SPD_FLOOR, ProfileGrid, profile_spd
 from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction

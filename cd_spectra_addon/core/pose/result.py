@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from ..readout.readout import FEATURE_LAMBDA_NM, FEATURE_STEP_NM, N_FEATURES
 from ..scene.capture import Preset, Scene
 from ..scene.diffraction import PixelDiffraction, pixel_diffraction
-from ..spectra.grid import WAVELENGTHS_NM
+from ..spectra.cameras import camera_colours, unit_colours
 
 # λ₁ bins of the reported consistency: finer than the features, so a lamp line sharper than a
 # feature bin does not make pixels of one bin disagree.
@@ -25,7 +25,7 @@ FIT_STEP_NM = 2.0
 COLOUR_BAND_NM = (400.0, 750.0)  # λ₁ where only the first order shows (the second starts at 760 nm)
 ZERO_ORDER_SIGMAS = 6.0  # the mirror glint's lobe, in lamp sizes, left out of the fit
 
-__all__ = ["PoseFit", "consistency", "camera_colours", "unit_colours", "expected_colours", "colour_blur_nm", "COLOUR_BAND_NM", "glint_mask", "FIT_STEP_NM",
+__all__ = ["PoseFit", "consistency", "expected_colours", "colour_blur_nm", "COLOUR_BAND_NM", "glint_mask", "FIT_STEP_NM",
            "ZERO_ORDER_SIGMAS", "contrast"]
 
 
@@ -136,29 +136,6 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
         along = np.where(free, np.sum(vi * vi, axis=1), np.nansum(vi * colour, axis=1) ** 2)
     explained = float(np.sum(np.divide(along, vv, out=np.zeros_like(vv), where=vv > 1e-12)))
     return 1.0 - explained / energy
-
-
-def camera_colours(lambda1_nm: NDArray[np.float64], sensitivities: NDArray[np.float64],
-                   blur_nm: float | NDArray[np.float64], spd: NDArray[np.float64] | None = None
-                   ) -> NDArray[np.float64]:
-    """The camera's RGB (not normalised) of the light a pixel at each ``lambda1_nm`` gets: the
-    lamp's ``spd`` (on the product grid; flat without one) times the sensitivities, blurred by the
-    lobe and the pixel footprint (Gaussian std ``blur_nm``, one or one per λ₁). Where the lamp's
-    spectrum is steep within the blur (a narrow LED band, a line) the pixel's colour is that of
-    the bright side, not of λ₁ itself."""
-    lam = np.asarray(lambda1_nm, dtype=np.float64)[:, None]
-    s = np.asarray(blur_nm, dtype=np.float64).reshape(-1, 1) if np.ndim(blur_nm) else float(blur_nm)
-    kernel = np.exp(-0.5 * ((lam - WAVELENGTHS_NM[None, :]) / s) ** 2)
-    sens = np.asarray(sensitivities, dtype=np.float64)
-    if spd is not None:
-        sens = sens * np.asarray(spd, dtype=np.float64)[:, None]
-    return kernel @ sens
-
-
-def unit_colours(rgb: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rows of ``rgb`` scaled to length 1; NaN rows where there is no colour to speak of."""
-    norm = np.linalg.norm(rgb, axis=1, keepdims=True)
-    return np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
 
 
 def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float,

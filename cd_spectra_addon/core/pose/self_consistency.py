@@ -29,7 +29,8 @@ from ..scene.capture import Disc
 from ..scene.kernel import DERIVATIVE_CHUNK, Diffraction, camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
-from .result import COLOUR_BAND_NM, camera_colours, unit_colours
+from ..spectra.cameras import camera_colours, unit_colours
+from .result import COLOUR_BAND_NM
 
 SECOND_ORDER_NM = (800.0, 1140.0)  # λ₁ where only the second order of 400–570 nm shows (the third starts at 1140)
 TAPER_NM = 10.0

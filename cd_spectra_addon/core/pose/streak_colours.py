@@ -17,6 +17,7 @@ from ..numerics.least_squares import cauchy, levenberg_marquardt
 from ..scene.capture import Preset
 from ..scene.kernel import index_rays
 from ..scene.relative_pose import RelativePose, apply_params, ray_diffraction
+from ..spectra.cameras import camera_colours, unit_colours
 from .result import colour_blur_nm
 
 __all__ = ["colour_wavelengths", "streak_fit"]
@@ -40,11 +41,7 @@ def colour_wavelengths(values: NDArray[np.float64], sensitivities: NDArray[np.fl
     spectrum — to within that band. Where the camera's colour barely changes with λ (deep red,
     violet) the weight is small."""
     lam = np.arange(COLOUR_BAND[0], COLOUR_BAND[1] + 0.5, 1.0)
-    grid = np.arange(380.0, 781.0, 5.0)
-    s = max(float(blur_nm), 1.0)
-    kernel = np.exp(-0.5 * ((lam[:, None] - grid[None, :]) / s) ** 2)
-    table = kernel @ np.asarray(sensitivities, dtype=np.float64)
-    table /= np.linalg.norm(table, axis=1, keepdims=True)
+    table = unit_colours(camera_colours(lam, sensitivities, max(float(blur_nm), 1.0)))
     slope = np.gradient(table, axis=0)
     sharp = np.sum(slope ** 2, axis=1)
     norm = np.linalg.norm(values, axis=1)

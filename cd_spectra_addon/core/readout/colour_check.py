@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .readout import Readout
-from ..spectra.grid import WAVELENGTHS_NM
+from ..spectra.cameras import camera_colours, unit_colours
 
 CHECK_BAND_NM = (450.0, 640.0)  # where a camera's colour names λ to a few nm
 MIN_BINS = 8
@@ -24,10 +24,7 @@ __all__ = ["CHECK_BAND_NM", "wavelength_shift_nm"]
 
 
 def _camera_colour(lam: NDArray[np.float64], sensitivities: NDArray[np.float64], blur_nm: float) -> NDArray[np.float64]:
-    s = max(float(blur_nm), 1.0)
-    kernel = np.exp(-0.5 * ((lam[:, None] - WAVELENGTHS_NM[None, :]) / s) ** 2)
-    rgb = kernel @ np.asarray(sensitivities, dtype=np.float64)
-    return rgb / np.maximum(np.linalg.norm(rgb, axis=1, keepdims=True), 1e-300)
+    return unit_colours(camera_colours(lam, sensitivities, max(float(blur_nm), 1.0)))
 
 
 def wavelength_shift_nm(readout: Readout, sensitivities: NDArray[np.float64], blur_nm: float) -> float | None:

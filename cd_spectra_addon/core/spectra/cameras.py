@@ -23,7 +23,8 @@ CAMERA_FILE = Path(__file__).resolve().parents[2] / "cameras" / "cameras.json"
 DEFAULT_CAMERA = "Canon_EOS_5D_Mark_III"
 GENERIC_CAMERA = "generic"  # "my camera is not listed": the model's typical sensitivities
 
-__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "GENERIC_CAMERA", "CameraProfile", "camera_names", "load_camera", "camera_from_exif"]
+__all__ = ["CAMERA_FILE", "DEFAULT_CAMERA", "GENERIC_CAMERA", "CameraProfile", "camera_names", "load_camera", "camera_from_exif",
+           "camera_colours", "unit_colours"]
 
 # EXIF Make → the brand word our profile names start with.
 _BRANDS = {"nikon corporation": "nikon", "nikon": "nikon", "canon": "canon", "sony": "sony", "fujifilm": "fujifilm",
@@ -111,3 +112,28 @@ def camera_from_exif(make: str | None, model: str | None) -> str | None:
     if wanted in profiles:
         return profiles[wanted]
     return _ALIASES.get(wanted)
+
+
+def camera_colours(lambda_nm: NDArray[np.float64], sensitivities: NDArray[np.float64],
+                   blur_nm: float | NDArray[np.float64], spd: NDArray[np.float64] | None = None
+                   ) -> NDArray[np.float64]:
+    """The camera's RGB (not normalised) of the light a pixel showing wavelength ``lambda_nm``
+    gets from a CD: the lamp's ``spd`` (on the product grid; flat without one) times the
+    sensitivities, blurred by the lobe and the pixel footprint (Gaussian std ``blur_nm``, one or
+    one per wavelength). Where the lamp's spectrum is steep within the blur (a narrow LED band, a
+    line) the colour is that of the bright side, not of ``lambda_nm`` itself. The one
+    implementation behind the pose fit's expected colours, the streak colours and the readout's
+    colour check."""
+    lam = np.asarray(lambda_nm, dtype=np.float64)[:, None]
+    s = np.asarray(blur_nm, dtype=np.float64).reshape(-1, 1) if np.ndim(blur_nm) else float(blur_nm)
+    kernel = np.exp(-0.5 * ((lam - WAVELENGTHS_NM[None, :]) / s) ** 2)
+    sens = np.asarray(sensitivities, dtype=np.float64)
+    if spd is not None:
+        sens = sens * np.asarray(spd, dtype=np.float64)[:, None]
+    return kernel @ sens
+
+
+def unit_colours(rgb: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows of ``rgb`` scaled to length 1; NaN rows where there is no colour to speak of."""
+    norm = np.linalg.norm(rgb, axis=1, keepdims=True)
+    return np.divide(rgb, norm, out=np.full_like(rgb, np.nan), where=norm > 1e-12)
