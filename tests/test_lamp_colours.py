@@ -14,11 +14,10 @@ import numpy as np
 import pytest
 
 from cd_spectra_addon.core.pose import fit as pose_fit
-from cd_spectra_addon.core.spectra.cameras import camera_colours, unit_colours
 from cd_spectra_addon.core.pose.self_consistency import SPD_FLOOR, ProfileGrid, profile_spd
 from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
-from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, load_camera
+from cd_spectra_addon.core.spectra.cameras import DEFAULT_CAMERA, camera_colours, load_camera, unit_colours
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube

@@ -138,15 +138,14 @@ def consistency(rgb: NDArray[np.float64], scene: Scene, total: float | None = No
     return 1.0 - explained / energy
 
 
-def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float,
-                     spd: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """Unit camera colour per fit bin of width ``step_nm`` (:func:`camera_colours`, blurred by
-    the lobe and the pixel footprint ``blur_nm``, the lamp's ``spd`` where known); NaN outside
-    COLOUR_BAND_NM."""
+def expected_colours(sensitivities: NDArray[np.float64], step_nm: float, blur_nm: float) -> NDArray[np.float64]:
+    """Unit camera colour per fit bin of width ``step_nm`` under a flat spectrum
+    (:func:`..spectra.cameras.camera_colours`, blurred by the lobe and the pixel footprint
+    ``blur_nm``); NaN outside COLOUR_BAND_NM."""
     lam0 = FEATURE_LAMBDA_NM[0] - FEATURE_STEP_NM / 2
     n_bins = int(round(N_FEATURES * FEATURE_STEP_NM / step_nm))
     centres = lam0 + (np.arange(n_bins) + 0.5) * step_nm
-    out = unit_colours(camera_colours(centres, sensitivities, max(float(blur_nm), 1.0), spd))
+    out = unit_colours(camera_colours(centres, sensitivities, max(float(blur_nm), 1.0)))
     out[(centres < COLOUR_BAND_NM[0]) | (centres > COLOUR_BAND_NM[1])] = np.nan
     return out
 

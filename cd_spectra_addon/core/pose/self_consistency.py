@@ -112,8 +112,8 @@ SPD_FLOOR = 0.01
 
 def profile_spd(profile: NDArray[np.float64], grid: ProfileGrid, sensitivities: NDArray[np.float64],
                 blur_nm: float) -> NDArray[np.float64] | None:
-    """The lamp's SPD on the product grid (peak 1, blurred by the lobe) as a fitted λ₁ profile
-    shows it: each first-order node's colour projected on the camera's colour at its λ under a
+    """The lamp's SPD on the product grid (peak 1 above a floor of SPD_FLOOR, blurred by the
+    lobe) as a fitted λ₁ profile shows it: each first-order node's colour projected on the camera's colour at its λ under a
     flat spectrum, the same blur as :meth:`ProfileGrid.with_camera`'s; None where it shows no
     light. What the colours of a second fit expect (``with_camera(spd=…)``)."""
     nodes = grid.nodes_nm
