@@ -29,7 +29,7 @@ from ..scene.capture import Disc
 from ..scene.kernel import DERIVATIVE_CHUNK, Diffraction, camera_rays, diffraction_along
 from ..scene.relative_pose import RelativePose
 from ..spectra.grid import WAVELENGTHS_NM
-from ..spectra.cameras import camera_colours, unit_colours
+from ..spectra.cameras import LAMP_SPD_FLOOR, camera_colours, unit_colours
 from .result import COLOUR_BAND_NM
 
 SECOND_ORDER_NM = (800.0, 1140.0)  # λ₁ where only the second order of 400–570 nm shows (the third starts at 1140)
@@ -105,14 +105,9 @@ class ProfileGrid:
         return grid
 
 
-# Where the lamp's spectrum as a profile shows it is dark, its colours are a flat spectrum's: a
-# floor of this share of its brightest.
-SPD_FLOOR = 0.01
-
-
 def profile_spd(profile: NDArray[np.float64], grid: ProfileGrid, sensitivities: NDArray[np.float64],
                 blur_nm: float) -> NDArray[np.float64] | None:
-    """The lamp's SPD on the product grid (peak 1 above a floor of SPD_FLOOR, blurred by the
+    """The lamp's SPD on the product grid (peak 1 above a floor of LAMP_SPD_FLOOR, blurred by the
     lobe) as a fitted λ₁ profile shows it: each first-order node's colour projected on the camera's colour at its λ under a
     flat spectrum, the same blur as :meth:`ProfileGrid.with_camera`'s; None where it shows no
     light. What the colours of a second fit expect (``with_camera(spd=…)``)."""
@@ -128,7 +123,7 @@ def profile_spd(profile: NDArray[np.float64], grid: ProfileGrid, sensitivities: 
     if not peak > 0:
         return None
     spd = np.interp(WAVELENGTHS_NM, nodes[first], level / peak)
-    return spd + SPD_FLOOR
+    return spd + LAMP_SPD_FLOOR
 
 
 def solve_tridiagonal(diag: NDArray[np.float64], off: NDArray[np.float64], rhs: NDArray[np.float64]

@@ -114,6 +114,11 @@ def camera_from_exif(make: str | None, model: str | None) -> str | None:
     return _ALIASES.get(wanted)
 
 
+# Where a lamp's spectrum is dark, its light still has the camera's colours: the expected colours
+# of a lamp (camera_colours(spd=…)) take its SPD peak 1 above a floor of this share.
+LAMP_SPD_FLOOR = 0.01
+
+
 def camera_colours(lambda_nm: NDArray[np.float64], sensitivities: NDArray[np.float64],
                    blur_nm: float | NDArray[np.float64], spd: NDArray[np.float64] | None = None
                    ) -> NDArray[np.float64]:
