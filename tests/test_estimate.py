@@ -17,8 +17,9 @@ from cd_spectra_addon.core.scene.capture import Scene, load_preset
 from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
+from cd_spectra_addon.core.inverse import estimate as estimate_module
 from cd_spectra_addon.core.inverse.estimate import (RESIDUAL_FLOOR, RESIDUAL_OK, RESIDUAL_WARN, _unexplained, estimate_photo,
-                                                   profile_residual)
+                                                   profile_residual, spectrum_spread)
 from cd_spectra_addon.core.inverse.stages import brightest_level, read_photo
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, load_model
@@ -260,3 +261,30 @@ def test_a_spectrum_that_leaves_the_rainbow_unexplained_costs_confidence(tmp_pat
     assert 0.0 <= _unexplained(readout, residual) <= residual
     loud = replace(readout, noise=readout.noise + residual * np.max(np.abs(readout.values)))
     assert _unexplained(loud, residual) == 0.0
+
+
+def test_the_spread_is_the_mean_std_over_400_700_as_a_share_of_the_peak():
+    spd = 3.0 * peak_normalise(known_lamp_spd("incandescent"))
+    std = np.where((WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700), 0.15, 9.0)  # outside the band: ignored
+    assert spectrum_spread(spd, std) == pytest.approx(0.05)
+    assert spectrum_spread(2 * spd, 2 * std) == pytest.approx(0.05)
+    assert spectrum_spread(spd, np.full_like(spd, np.nan)) == 0.0  # an operating point without a std
+    assert spectrum_spread(np.zeros_like(spd), std) == 0.0
+
+
+def test_an_uncertain_spectrum_costs_confidence_and_is_told(tmp_path, capture, monkeypatch):
+    """The estimate's own uncertainty enters the confidence past SPREAD_OK, by SPREAD_SLOPE per
+    unit, and the user is told past SPREAD_WARN; below both nothing changes."""
+    path = _write(tmp_path, capture, _warm_led(), fmt="png")
+    plain = estimate_photo(path, preset=PRESET)
+    spread = plain.extra["checks"]["spd_spread_400_700"]
+    assert spread == pytest.approx(spectrum_spread(plain.spd, plain.spd_std))
+    assert 0.0 < spread < estimate_module.SPREAD_OK
+    assert not any("shape is uncertain" in w for w in plain.warnings)
+    monkeypatch.setattr(estimate_module, "SPREAD_OK", spread / 2)
+    monkeypatch.setattr(estimate_module, "SPREAD_WARN", spread / 2)
+    doubted = estimate_photo(path, preset=PRESET)
+    factor = max(0.3, 1.0 - estimate_module.SPREAD_SLOPE * spread / 2)
+    assert doubted.confidence == pytest.approx(plain.confidence * factor, rel=1e-6)
+    assert sum("shape is uncertain" in w for w in doubted.warnings) == 1
+    assert np.array_equal(doubted.spd, plain.spd)

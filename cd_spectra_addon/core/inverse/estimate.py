@@ -72,6 +72,17 @@ POSE_SPAN_DEG = 4.0
 # confidence's correlation with the error went -0.29 -> -0.35 (10 nm: -0.354, 11: -0.348); a lamp
 # of σ 0.01 (16 nm) read 0.09-0.14 against 0.02-0.03 at the presets' sizes.
 BLUR_OK_NM = 11.0
+# The estimate's own uncertainty: its mean std over 400–700 nm as a share of its peak (the
+# operating point's posterior; a line lamp whose lines the blur hides, a dim rainbow). Where the
+# pose and photo checks pass, this is what the error still turns on: on synthetic spectra of the
+# training prior (96 photos of the four set-ups, nominal and combined errors) it correlated
+# with the MAE at r 0.52–0.68; its median was 0.037. Past SPREAD_OK the confidence falls by
+# SPREAD_SLOPE per unit (pooled r(confidence, MAE) −0.45 → −0.64; (0.03, 8): −0.68 but nominal
+# photos' confidence 0.93 → 0.87); past SPREAD_WARN (2 of the 96: a line lamp, a metal-halide lamp) the
+# user is told.
+SPREAD_OK = 0.04
+SPREAD_SLOPE = 8.0
+SPREAD_WARN = 0.075
 # An uncalibrated in-camera JPEG's error was ~5× a raw file's (issue 11, bench/camera_files.md).
 PROCESSED_CONFIDENCE = 0.5
 # A calibrated in-camera file's bins at full scale (share of 400–700 nm with > 5 % of their
@@ -414,6 +425,15 @@ def disc_fit(photo: PhotoReading, preset: Preset) -> DiscFit:
     )
 
 
+def spectrum_spread(spd: NDArray[np.float64], std: NDArray[np.float64]) -> float:
+    """The mean std of ``spd`` over 400–700 nm as a share of its peak; 0 where it has none."""
+    band = (WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700)
+    peak = float(np.max(spd, initial=0.0))
+    s = np.asarray(std, dtype=np.float64)[band]
+    s = s[np.isfinite(s)]
+    return float(np.mean(s)) / peak if s.size and peak > 0 else 0.0
+
+
 def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, warnings: list[str],
                     stats: dict, preset: Preset, calibration: Calibration | None, model: SpectralModel | None,
                     method: str, working_space: str, timing: dict[str, float], camera: str | None = None
@@ -424,6 +444,15 @@ def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, wa
     if result.fallback:
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
+    spread = spectrum_spread(spd, std)
+    stats["spd_spread_400_700"] = spread
+    if spread > SPREAD_OK:
+        confidence *= max(0.3, 1.0 - SPREAD_SLOPE * (spread - SPREAD_OK))
+    if spread > SPREAD_WARN:
+        warnings.append(f"the spectrum's shape is uncertain: ±{100 * spread:.0f}% of its peak on average over "
+                        "400–700 nm (the band around the curve) — its sharp features (lines, a narrow LED band, a "
+                        "filter's edge) are narrower than the rainbow resolves; a smaller lamp (or a card with a "
+                        "small hole in front of it) and a disc filling more of the frame sharpen it")
     light = colour.spectral_colour(spd, working_space)
     if light.out_of_gamut:
         warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
