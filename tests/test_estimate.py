@@ -273,7 +273,7 @@ def test_the_spread_is_the_mean_std_over_400_700_as_a_share_of_the_peak():
 
 
 def test_an_uncertain_spectrum_costs_confidence_and_is_told(tmp_path, capture, monkeypatch):
-    """The estimate's own uncertainty enters the confidence past SPREAD_OK, by SPREAD_SLOPE per
+    """The model's own uncertainty enters the confidence past SPREAD_OK, by SPREAD_SLOPE per
     unit, and the user is told past SPREAD_WARN; below both nothing changes."""
     path = _write(tmp_path, capture, _warm_led(), fmt="png")
     plain = estimate_photo(path, preset=PRESET)
@@ -288,3 +288,7 @@ def test_an_uncertain_spectrum_costs_confidence_and_is_told(tmp_path, capture, m
     assert doubted.confidence == pytest.approx(plain.confidence * factor, rel=1e-6)
     assert sum("shape is uncertain" in w for w in doubted.warnings) == 1
     assert np.array_equal(doubted.spd, plain.spd)
+    # The physics solve's std is not the model's (never measured against the error): not used.
+    physics = estimate_photo(path, preset=PRESET, method="physics")
+    assert np.isnan(physics.extra["checks"]["spd_spread_400_700"])
+    assert not any("shape is uncertain" in w for w in physics.warnings)

@@ -79,7 +79,7 @@ BLUR_OK_NM = 11.0
 # with the MAE at r 0.52–0.68; its median was 0.037. Past SPREAD_OK the confidence falls by
 # SPREAD_SLOPE per unit (pooled r(confidence, MAE) −0.45 → −0.64; (0.03, 8): −0.68 but nominal
 # photos' confidence 0.93 → 0.87); past SPREAD_WARN (2 of the 96: a line lamp, a metal-halide lamp) the
-# user is told.
+# user is told. The model's operating point only.
 SPREAD_OK = 0.04
 SPREAD_SLOPE = 8.0
 SPREAD_WARN = 0.075
@@ -444,7 +444,9 @@ def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, wa
     if result.fallback:
         warnings.append("the model returned no usable spectrum for this photo: showing the physics-only estimate")
         confidence *= 0.5
-    spread = spectrum_spread(spd, std)
+    # Only the model's std was measured against the error; the physics solve's is the bare
+    # posterior, several times wider than its error (a fallback is already marked down).
+    spread = spectrum_spread(spd, std) if method == METHOD_MODEL and not result.fallback else math.nan
     stats["spd_spread_400_700"] = spread
     if spread > SPREAD_OK:
         confidence *= max(0.3, 1.0 - SPREAD_SLOPE * (spread - SPREAD_OK))
