@@ -73,13 +73,14 @@ POSE_SPAN_DEG = 4.0
 # of σ 0.01 (16 nm) read 0.09-0.14 against 0.02-0.03 at the presets' sizes.
 BLUR_OK_NM = 11.0
 # The estimate's own uncertainty: its mean std over 400–700 nm as a share of its peak (the
-# operating point's posterior; a line lamp whose lines the blur hides, a dim rainbow). Where the
-# pose and photo checks pass, this is what the error still turns on: on synthetic spectra of the
-# training prior (96 photos of the four set-ups, nominal and combined errors) it correlated
-# with the MAE at r 0.52–0.68; its median was 0.037. Past SPREAD_OK the confidence falls by
-# SPREAD_SLOPE per unit (pooled r(confidence, MAE) −0.45 → −0.64; (0.03, 8): −0.68 but nominal
-# photos' confidence 0.93 → 0.87); past SPREAD_WARN (2 of the 96: a line lamp, a metal-halide lamp) the
-# user is told. The model's operating point only.
+# model's posterior: widest for lines, narrow bands and filter edges the blur hides; 1 % vs 5 %
+# noise on one photo barely moved it). Where the pose and photo checks pass, this is what the
+# error still turns on: on synthetic spectra of the training prior (96 photos of the four
+# set-ups, nominal and combined errors) it correlated with the MAE at r 0.52–0.68; its median
+# was 0.037. Past SPREAD_OK the confidence falls by SPREAD_SLOPE per unit (pooled
+# r(confidence, MAE) −0.45 → −0.64; (0.03, 8): −0.68 but nominal photos' confidence
+# 0.93 → 0.87); past SPREAD_WARN (2 of the 96: a line lamp, a metal-halide lamp) the user is
+# told. The model's operating point only.
 SPREAD_OK = 0.04
 SPREAD_SLOPE = 8.0
 SPREAD_WARN = 0.075
