@@ -224,7 +224,7 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
                    "with the disc")
         score *= max(0.3, BLUR_OK_NM / blur)
     shift = wavelength_shift_nm(readout, analysis.camera.sensitivities, blur, spd)
-    stats["colour_shift_nm"] = math.nan if shift is None else shift
+    stats["colour_shift_nm"] = shift  # None (JSON null) with too few bins to tell
     if shift is not None and abs(shift) > COLOUR_SHIFT_OK_NM:
         warnings.append(f"the rainbow's colours put its wavelengths {abs(shift):.0f} nm {'below' if shift > 0 else 'above'} "
                         "where the fitted capture does (a green pixel cannot be 620 nm): the pose or the camera profile "
@@ -447,8 +447,10 @@ def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, wa
         confidence *= 0.5
     # Only the model's std was measured against the error; the physics solve's is the bare
     # posterior, several times wider than its error (a fallback is already marked down).
-    spread = spectrum_spread(spd, std) if method == METHOD_MODEL and not result.fallback else math.nan
-    stats["spd_spread_400_700"] = spread
+    measured = method == METHOD_MODEL and not result.fallback
+    spread = spectrum_spread(spd, std) if measured else 0.0
+    if measured:  # reported only where measured (the result's JSON holds no NaN)
+        stats["spd_spread_400_700"] = spread
     if spread > SPREAD_OK:
         confidence *= max(0.3, 1.0 - SPREAD_SLOPE * (spread - SPREAD_OK))
     if spread > SPREAD_WARN:
