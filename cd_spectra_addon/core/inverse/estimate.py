@@ -447,17 +447,15 @@ def estimate_result(photo: PhotoReading, result: Spectrum, confidence: float, wa
         confidence *= 0.5
     # Only the model's std was measured against the error; the physics solve's is the bare
     # posterior, several times wider than its error (a fallback is already marked down).
-    measured = method == METHOD_MODEL and not result.fallback
-    spread = spectrum_spread(spd, std) if measured else 0.0
-    if measured:  # reported only where measured (the result's JSON holds no NaN)
-        stats["spd_spread_400_700"] = spread
-    if spread > SPREAD_OK:
-        confidence *= max(0.3, 1.0 - SPREAD_SLOPE * (spread - SPREAD_OK))
-    if spread > SPREAD_WARN:
-        warnings.append(f"the spectrum's shape is uncertain: ±{100 * spread:.0f}% of its peak on average over "
-                        "400–700 nm (the band around the curve) — its sharp features (lines, a narrow LED band, a "
-                        "filter's edge) are narrower than the rainbow resolves; a smaller lamp (or a card with a "
-                        "small hole in front of it) and a disc filling more of the frame sharpen it")
+    if method == METHOD_MODEL and not result.fallback:
+        spread = stats["spd_spread_400_700"] = spectrum_spread(spd, std)
+        if spread > SPREAD_OK:
+            confidence *= max(0.3, 1.0 - SPREAD_SLOPE * (spread - SPREAD_OK))
+        if spread > SPREAD_WARN:
+            warnings.append(f"the spectrum's shape is uncertain: ±{100 * spread:.0f}% of its peak on average over "
+                            "400–700 nm (the band around the curve) — its sharp features (lines, a narrow LED band, a "
+                            "filter's edge) are narrower than the rainbow resolves; a smaller lamp (or a card with a "
+                            "small hole in front of it) and a disc filling more of the frame sharpen it")
     light = colour.spectral_colour(spd, working_space)
     if light.out_of_gamut:
         warnings.append(f"the lamp's colour is outside {working_space}: the light colour is clipped to the gamut")
