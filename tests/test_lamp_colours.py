@@ -21,6 +21,7 @@ from cd_spectra_addon.core.scene.diffraction import pixel_diffraction
 from cd_spectra_addon.core.spectra.cameras import (DEFAULT_CAMERA, LAMP_SPD_FLOOR, camera_colours, load_camera,
                                                   unit_colours)
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM
+from cd_spectra_addon.core.spectra.illuminants import planck_spd
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
 
@@ -63,6 +64,27 @@ def test_the_profile_shows_the_lamps_spectrum():
     assert spd.max() == pytest.approx(1.0 + LAMP_SPD_FLOOR, abs=0.01)
     assert np.all(spd[LAM >= 520] < 2 * LAMP_SPD_FLOOR)
     assert profile_spd(np.zeros_like(profile), grid, CAMERA.sensitivities, 5.0) is None
+
+
+def test_a_speck_where_the_camera_barely_sees_is_not_the_lamps_peak():
+    """A bulb's profile (2700 K, rising to 780 nm) with a speck of noise at 740 nm, where the
+    camera's response is 0.02 % of its peak: a node's level is its colour over the response
+    squared, so the speck was the lamp's "peak" and floored every colour it has (a synthetic bulb
+    on phone-distant-lamp: its fine fit went 9° off). The lamp is read where the camera sees it:
+    its slope as the bulb's, brightest at the red end of that range."""
+    grid = ProfileGrid(300.0, 2500.0, 3.0)
+    nodes = grid.nodes_nm
+    first = (nodes >= 400) & (nodes <= 750)
+    bulb = planck_spd(2700.0)
+    profile = np.zeros((grid.size, 3))
+    profile[first] = camera_colours(nodes[first], CAMERA.sensitivities, 5.0, bulb)
+    profile[np.argmin(np.abs(nodes - 740.0))] += 1e-3 * np.abs(profile).max()
+    spd = profile_spd(profile, grid, CAMERA.sensitivities, 5.0)
+    at = lambda nm: float(np.interp(nm, LAM, spd))  # noqa: E731
+    truth = lambda nm: float(np.interp(nm, LAM, bulb))  # noqa: E731
+    assert LAM[np.argmax(spd)] >= 660.0 and at(680.0) > 0.9  # the red end the camera sees is the peak
+    assert at(600.0) / at(480.0) == pytest.approx(truth(600.0) / truth(480.0), rel=0.15)
+    assert spd.min() > 5 * LAMP_SPD_FLOOR  # nowhere floored: a bulb lights every colour
 
 
 def test_the_lamps_colours_are_unit_rows_where_it_shows_light():

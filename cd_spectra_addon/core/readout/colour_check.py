@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .readout import Readout
-from ..spectra.cameras import LAMP_SPD_FLOOR, camera_colours, unit_colours
+from ..spectra.cameras import camera_colours, lamp_light, unit_colours
 
 CHECK_BAND_NM = (450.0, 640.0)  # where a camera's colour names λ to a few nm
 MIN_BINS = 8
@@ -29,15 +29,6 @@ __all__ = ["CHECK_BAND_NM", "wavelength_shift_nm"]
 def _camera_colour(lam: NDArray[np.float64], sensitivities: NDArray[np.float64], blur_nm: float,
                    spd: NDArray[np.float64] | None) -> NDArray[np.float64]:
     return unit_colours(camera_colours(lam, sensitivities, max(float(blur_nm), 1.0), spd))
-
-
-def _lamp(spd: NDArray[np.float64] | None) -> NDArray[np.float64] | None:
-    """``spd`` peak 1 above LAMP_SPD_FLOOR; None (flat colours) where it has no light."""
-    if spd is None:
-        return None
-    spd = np.maximum(np.nan_to_num(np.asarray(spd, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0), 0.0)
-    peak = float(spd.max(initial=0.0))
-    return spd / peak + LAMP_SPD_FLOOR if peak > 0 else None
 
 
 def wavelength_shift_nm(readout: Readout, sensitivities: NDArray[np.float64], blur_nm: float,
@@ -56,7 +47,7 @@ def wavelength_shift_nm(readout: Readout, sensitivities: NDArray[np.float64], bl
     values = readout.values[use_idx]
     norm = np.linalg.norm(values, axis=1)
     unit = values / norm[:, None]
-    lamp = _lamp(spd)
+    lamp = lamp_light(spd)
     centre = _camera_colour(lam[use_idx], sensitivities, blur_nm, lamp)
     tangent = (_camera_colour(lam[use_idx] + 0.5, sensitivities, blur_nm, lamp)
                - _camera_colour(lam[use_idx] - 0.5, sensitivities, blur_nm, lamp))  # per nm

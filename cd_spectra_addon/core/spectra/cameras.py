@@ -119,6 +119,16 @@ def camera_from_exif(make: str | None, model: str | None) -> str | None:
 LAMP_SPD_FLOOR = 0.01
 
 
+def lamp_light(spd: NDArray[np.floating] | None) -> NDArray[np.float64] | None:
+    """``spd`` as the expected colours take a lamp's light: peak 1 above LAMP_SPD_FLOOR (NaN,
+    infinite and negative values as no light); None (a flat spectrum's colours) where it has none."""
+    if spd is None:
+        return None
+    spd = np.maximum(np.nan_to_num(np.asarray(spd, dtype=np.float64), nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+    peak = float(spd.max(initial=0.0))
+    return spd / peak + LAMP_SPD_FLOOR if peak > 0 else None
+
+
 def camera_colours(lambda_nm: NDArray[np.float64], sensitivities: NDArray[np.float64],
                    blur_nm: float | NDArray[np.float64], spd: NDArray[np.float64] | None = None
                    ) -> NDArray[np.float64]:
