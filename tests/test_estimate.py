@@ -293,3 +293,17 @@ def test_an_uncertain_spectrum_costs_confidence_and_is_told(tmp_path, capture, m
     assert "spd_spread_400_700" not in physics.extra["checks"]
     json.dumps(physics.to_json(), allow_nan=False)
     assert not any("shape is uncertain" in w for w in physics.warnings)
+
+
+@pytest.mark.parametrize("name", ["cd-default", "phone-near-axis", "tripod-oblique", "phone-distant-lamp"])
+def test_a_rainbow_no_capture_explains_is_told_what_to_check_for_its_set_up(name):
+    """An oblique set-up has no axis to put camera and lamp on: its warning says where the
+    preset puts them (the distant-lamp photos the fit could not place were told to put them on
+    the axis)."""
+    preset = load_preset(name)
+    text = estimate_module.geometry_mismatch(preset)
+    assert text.startswith("the rainbow does not match a CD seen from the preset's geometry")
+    if name in ("tripod-oblique", "phone-distant-lamp"):
+        assert "on the disc's axis" not in text and f"preset '{name}'" in text and "° from the disc's axis" in text
+    else:
+        assert "camera and lamp are on the disc's axis" in text

@@ -33,7 +33,8 @@ from ..calibration.calibration import (POOR_CALIBRATION_CONFIDENCE, Calibration,
 from ..calibration.camera_fit import CameraPrior, camera_prior
 from ..spectra.cameras import DEFAULT_CAMERA, GENERIC_CAMERA, CameraProfile, camera_from_exif, camera_names, load_camera
 from ..scene.capture import DEFAULT_PRESET, Preset, Scene, load_preset
-from ..planning.capture_advice import capture_angles, coverage_advice
+from ..scene.relative_pose import near_axis
+from ..planning.capture_advice import capture_angles, coverage_advice, oblique_advice
 from ..readout.colour_check import wavelength_shift_nm
 from ..errors import CDSpectraError
 from .load import load_for_estimate
@@ -184,6 +185,14 @@ def _unexplained(readout: Readout, residual: float) -> float:
     return math.sqrt(max(residual * residual - noise * noise, 0.0))
 
 
+def geometry_mismatch(preset: Preset) -> str:
+    """The warning for a photo no capture near the preset's explains, with what to check on
+    this kind of set-up (an oblique one has no axis to put camera and lamp on)."""
+    check = ("that camera and lamp are on the disc's axis" if near_axis(preset)
+             else f"where camera and lamp stand — {oblique_advice(preset, None)}")
+    return f"the rainbow does not match a CD seen from the preset's geometry — check that the preset matches the capture, and {check}"
+
+
 def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Reading,
                 image: LinearImage | None, generic: bool, focal_source: str,
                 preset: Preset | None = None, coverage_check: bool = True) -> tuple[float, list[str], dict]:
@@ -290,8 +299,7 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
                         "it at the centre (a cropped photo also moves it: use the whole frame)")
         score *= max(0.2, 1.0 - (aim_deg - AIM_OK_DEG) / AIM_SPAN_DEG)
     if analysis.fit.residual > 0.15:
-        warnings.append("the rainbow does not match a CD seen from the preset's geometry — check that camera and "
-                        "lamp are on the disc's axis and the preset matches the capture")
+        warnings.append(geometry_mismatch(preset))
         score *= max(0.2, 1.0 - 2.0 * (analysis.fit.residual - 0.15))
     unexplained = _unexplained(readout, residual)
     stats["unexplained"] = unexplained
