@@ -718,6 +718,18 @@ def test_estimate_stores_the_result_and_its_curve(addon: Installed, monkeypatch:
     assert bpy.context.object.data["cd_spectra_photo"] == "cd.jpg"
 
 
+def test_a_low_confidence_estimate_is_reported_as_a_warning_with_its_reason(addon: Installed) -> None:
+    """The status bar line: a trusted estimate is news; one under LOW_CONFIDENCE says why not to
+    trust it (its first warning), where a bare "confidence 1%" was easy to miss."""
+    op = addon.sub("cd_spectra_addon.blender.operators.estimate_spd")
+    good = op.outcome_report({"confidence": 0.97, "warnings": ["room light adds 1%"]}, "3300 K")
+    assert good == ("INFO", "Estimated 3300 K, confidence 97%")
+    level, text = op.outcome_report({"confidence": 0.01, "warnings": ["the rainbow does not match", "dim"]}, "3300 K")
+    assert level == "WARNING" and "confidence 1%" in text and "the rainbow does not match" in text
+    assert "every warning is in the panel" in text
+    assert op.outcome_report({"confidence": None}, "xy 0.4, 0.4")[0] == "WARNING"
+
+
 def _animated_gif(path: Path, frames: int) -> Path:
     from gif_writer import Frame, gif_bytes
 

@@ -23,6 +23,23 @@ from ..properties import (
 from ...core.spectra.cameras import DEFAULT_CAMERA
 
 _CHOICES = ("preset", "camera", "calibration")
+# Below this confidence the estimate is still stored and shown, but the status bar says it is not
+# to be trusted and why, not just a percentage: a photo the fit could not place reads 0–5 %
+# (bench/pose_errors_oblique205.md), a nominal one 90–100 %.
+LOW_CONFIDENCE = 0.5
+
+
+def outcome_report(data: dict[str, Any], colour: str) -> tuple[str, str]:
+    """The status bar's line for an estimate (its JSON) of ``colour``: INFO, or WARNING with the
+    estimate's first warning where its confidence is low."""
+    confidence = float(data.get("confidence") or 0.0)
+    text = f"Estimated {colour}, confidence {confidence:.0%}"
+    if confidence >= LOW_CONFIDENCE:
+        return "INFO", text
+    warnings = [str(w) for w in data.get("warnings") or ()]
+    reason = f" — {warnings[0]}" if warnings else ""
+    more = " (every warning is in the panel)" if len(warnings) > 1 else ""
+    return "WARNING", f"{text}: too low to trust{reason}{more}"
 
 
 class CDSPECTRA_OT_estimate_spd(bpy.types.Operator):
@@ -119,5 +136,6 @@ def run_and_store(operator: bpy.types.Operator, context: bpy.types.Context,
     state.store_estimate(settings, data)
     settings.node_group = group
     cct = f"{info.cct_k:.0f} K" if info.cct_k else f"xy {info.xy[0]:.4f}, {info.xy[1]:.4f}"
-    operator.report({"INFO"}, f"Estimated {cct}, confidence {float(data.get('confidence', 0)):.0%}")
+    level, text = outcome_report(data, cct)
+    operator.report({level}, text)
     return True
