@@ -107,11 +107,14 @@ class ProfileGrid:
 
 # A node's lamp level is its colour over the camera's response there, squared: where the camera
 # barely sees (the default profile's response is 0.3 % of its peak at 700 nm, 0.02 % at 740) a
-# stray value became the lamp's "peak" and floored its every other colour. Synthetic incandescent
-# on phone-distant-lamp (combined capture 1, pose_errors --synthetic): the fine stage's cost went
-# 0.018 → 0.20 and the fit ended 9° off (MAE 0.47). Only nodes where the response reaches this
-# share of its peak (squared: 3 % in amplitude, about 405–685 nm for the default profile) are
-# read; the lamp's level is held flat beyond them, where its colour barely counts anyway.
+# stray value of the profile became the lamp's "peak" and floored its every other colour, and the
+# fine stage expected those wrong colours. Only nodes where the response reaches this share of
+# its peak (squared: 3 % in amplitude, about 405–685 nm for the default profile) are read; the
+# lamp's level is held flat beyond them, where its colour barely counts anyway. Synthetic spectra
+# of the training prior (24 per row, scratch dev runs; MAE 400–700 / Δu'v' / λ₁ error before →
+# after): phone-distant-lamp nominal 0.0263 / 0.0017 / 0.59 nm → 0.0248 / 0.0011 / 0.37, on a lit
+# table 0.0291 / 0.0019 / 0.48 → 0.0283 / 0.0016 / 0.36, tripod-oblique combined 0.0201 / 0.0011
+# / 0.42 → 0.0200 / 0.0008 / 0.26; the near-axis rows unchanged.
 SEEN_RESPONSE = 1e-3
 
 
