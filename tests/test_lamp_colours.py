@@ -70,8 +70,8 @@ def test_a_speck_where_the_camera_barely_sees_is_not_the_lamps_peak():
     """A bulb's profile (2700 K, rising to 780 nm) with a speck of noise at 740 nm, where the
     camera's response is 0.02 % of its peak: a node's level is its colour over the response
     squared, so the speck was the lamp's "peak" and the bulb's own light fell to 0.41 of it at
-    680 nm, its blue to the floor. The lamp is read where the camera sees it: its slope as the
-    bulb's, brightest at the red end of that range."""
+    680 nm, its blue to 0.03. The lamp is read where the camera sees it: its slope as the bulb's,
+    brightest at the red end of that range."""
     grid = ProfileGrid(300.0, 2500.0, 3.0)
     nodes = grid.nodes_nm
     first = (nodes >= 400) & (nodes <= 750)

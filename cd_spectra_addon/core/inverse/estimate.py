@@ -190,7 +190,8 @@ def geometry_mismatch(preset: Preset) -> str:
     this kind of set-up (an oblique one has no axis to put camera and lamp on)."""
     check = ("that camera and lamp are on the disc's axis" if near_axis(preset)
              else f"where camera and lamp stand — {oblique_advice(preset, None)}")
-    return f"the rainbow does not match a CD seen from the preset's geometry — check that the preset matches the capture, and {check}"
+    return ("the rainbow does not match a CD seen from the preset's geometry — check that the preset matches the "
+            f"capture, and {check}")
 
 
 def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.float64], analysis: Reading,
