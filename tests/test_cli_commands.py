@@ -300,6 +300,30 @@ def test_compare_gives_the_rendition_differences(tmp_path: Path, result_file: Pa
     assert json.loads(proc.stdout.splitlines()[0])["rendition"]["difference"]["tm30_rg"] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_compare_picks_one_spectrum_of_a_table(tmp_path: Path, result_file: Path) -> None:
+    """A table of several spectra (samples/demo_lamps.csv holds three): --spectrum picks one by its
+    column name; without it, or with a name it lacks, the error says what to give."""
+    from cd_spectra_addon.core.spectra.colour import compare_spds
+
+    results = json.loads(result_file.read_text())
+    spd = np.asarray(results[0]["spd"])
+    table = tmp_path / "lamps.csv"
+    table.write_text("wavelength_nm,flat,meter\n" + "".join(f"{w},1,{v}\n" for w, v in zip(WAVELENGTHS_NM, spd)))
+    proc = run_cli("compare", str(result_file), str(table), "--spectrum", "meter", "--json")
+    assert proc.returncode == 0, proc.stderr
+    row = json.loads(proc.stdout.splitlines()[0])
+    assert row["reference"] == "meter" and row["mae_400_700"] == pytest.approx(0.0, abs=1e-12)
+    flat = json.loads(run_cli("compare", str(result_file), str(table), "--spectrum", "flat", "--json").stdout.splitlines()[0])
+    assert flat["mae_400_700"] == pytest.approx(compare_spds(spd, np.ones(spd.size))["mae_400_700"])
+    before = sorted(p.name for p in tmp_path.iterdir())
+    proc = run_cli("compare", str(result_file), str(table))
+    _assert_one_error(proc, tmp_path, before)
+    assert "flat, meter" in proc.stderr and "--spectrum NAME" in proc.stderr
+    proc = run_cli("compare", str(result_file), str(table), "--spectrum", "lamp")
+    _assert_one_error(proc, tmp_path, before)
+    assert "no spectrum 'lamp'" in proc.stderr
+
+
 def test_compare_refuses_an_unreadable_reference(tmp_path: Path, result_file: Path) -> None:
     bad = tmp_path / "meter.csv"
     bad.write_text("this is not a table\n")

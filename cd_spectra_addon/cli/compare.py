@@ -4,7 +4,8 @@ colour-rendition figures a meter shows (Ra, R9, Rf, Rg, peak and dominant wavele
 reference's value, the difference, and whether the reference lies in the estimate's 90 % range.
 
 REFERENCE is any spectrum file the panel reads (CSV/TSV/TXT, CD Spectra JSON, pbrt ``.spd``,
-TM-27-14 XML). With several results, one block each, in order.
+TM-27-14 XML); of a table with several spectra, ``--spectrum NAME`` picks one. With several
+results, one block each, in order.
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ RENDITION_LABELS = {"cri_ra": "Ra", "cri_r9": "R9", "tm30_rf": "Rf", "tm30_rg": 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("result", type=Path, metavar="RESULT.json", help="what `estimate --json` wrote")
     parser.add_argument("reference", type=Path, metavar="REFERENCE", help="the measured spectrum")
+    parser.add_argument("--spectrum", metavar="NAME",
+                        help="where REFERENCE holds several spectra (a table's columns), the one to compare with")
     parser.add_argument("--json", action="store_true", help="print one JSON object per result instead")
 
 
@@ -45,9 +48,11 @@ def run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     if not args.reference.is_file():
         raise UsageError(f"{args.reference}: no such file")
     try:
-        name, reference = read_reference_spd(args.reference)
+        name, reference = read_reference_spd(args.reference, args.spectrum)
     except (ValueError, OSError) as exc:  # CDSpectraError is a ValueError
         message = " ".join(str(exc).split())
+        if args.spectrum is None and message.endswith("choose one"):
+            message += " with --spectrum NAME"
         raise UsageError(message if str(args.reference.name) in message else f"{args.reference}: {message}") from exc
     for data in results:
         spd = np.asarray(data["spd"], dtype=np.float64)
