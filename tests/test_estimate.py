@@ -295,6 +295,42 @@ def test_an_uncertain_spectrum_costs_confidence_and_is_told(tmp_path, capture, m
     assert not any("shape is uncertain" in w for w in physics.warnings)
 
 
+def test_uniform_room_light_is_told_and_costs_only_its_share_of_the_levels(tmp_path, capture):
+    """4 % of full scale of warm room light over the whole photo (disc and surround alike): it is
+    measured on the dark disc and subtracted, so the spectrum reads as without it; the user is told,
+    and the confidence loses the offset's share of the levels (AMBIENT_COST per unit), not more."""
+    scene, cube, meter = capture
+    cam = load_camera(DEFAULT_CAMERA)
+    img, _ = photo.expose(photo.linear_photo(cube, _warm_led(), cam), 1.0, meter)
+    rng = np.random.default_rng(3)
+    c = scene.preset.camera
+    exif = photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0], DEFAULT_CAMERA)
+    paths = []
+    for name, room in (("dark", 0.0), ("lit", 0.04)):
+        lit = np.minimum(photo.add_noise(img + room * np.array([1.0, 0.9, 0.75]), 0.005, rng), 1.0)
+        paths.append(tmp_path / f"{name}.png")
+        photo.write_photo(paths[-1], lit, "png", exif)
+    dark, lit = (estimate_photo(p, preset=PRESET) for p in paths)
+    assert not any("room light" in w for w in dark.warnings)
+    assert sum("room light" in w for w in lit.warnings) == 1
+    offset = lit.extra["checks"]["ambient_offset"]
+    assert 0.03 < offset < 0.05
+    assert compare_spds(lit.spd, dark.spd)["mae_400_700"] < 0.01
+    assert lit.confidence >= dark.confidence * (1.0 - estimate_module.AMBIENT_COST * offset) - 0.02
+    assert lit.confidence <= dark.confidence + 0.02
+    assert lit.extra["checks"]["ambient_uneven"] < estimate_module.UNEVEN_WARN
+    assert not any("uneven" in w for w in lit.warnings)
+    # The same light brighter on one side: told, and the confidence falls for it.
+    across = np.linspace(-0.5, 0.5, img.shape[1])[None, :, None]
+    side = np.minimum(photo.add_noise(img + (0.04 + 0.16 * across) * np.array([1.0, 0.9, 0.75]), 0.005, rng), 1.0)
+    photo.write_photo(tmp_path / "side.png", side, "png", exif)
+    sided = estimate_photo(tmp_path / "side.png", preset=PRESET)
+    uneven = sided.extra["checks"]["ambient_uneven"]
+    assert uneven > estimate_module.UNEVEN_WARN and sum("uneven" in w for w in sided.warnings) == 1
+    assert sided.confidence <= lit.confidence * max(0.3, 1.0 - estimate_module.UNEVEN_COST
+                                                    * (uneven - estimate_module.UNEVEN_WARN)) + 1e-9
+
+
 @pytest.mark.parametrize("name", ["cd-default", "phone-near-axis", "tripod-oblique", "phone-distant-lamp"])
 def test_a_rainbow_no_capture_explains_is_told_what_to_check_for_its_set_up(name):
     """An oblique set-up has no axis to put camera and lamp on: its warning says where the

@@ -90,6 +90,24 @@ def test_room_light_is_measured_on_the_dark_disc():
     assert np.allclose(ambient.dark_offset(nominal + offset, nominal_scene), offset, rtol=0.1)  # the hub
 
 
+def test_room_light_from_one_side_is_measured_as_uneven():
+    """A uniform offset reads as even (its halves differ by noise only); the same offset with a
+    gradient across the frame reads as about the gradient over half the dark pixels' span, in
+    either direction; no offset, nothing to compare (0)."""
+    scene, image = _capture(Pose(light_offset_mm=(30.0, 0.0)))
+    base = np.minimum(image, 1.0)
+    rng = np.random.default_rng(0)
+    noisy = base + rng.normal(0.0, 0.005, base.shape)
+    offset, even = ambient.dark_levels(noisy + 0.03 * WARM, scene)
+    assert np.allclose(offset, 0.03 * WARM, atol=0.004) and even < 0.002
+    none, nothing = ambient.dark_levels(base, scene)
+    assert not np.any(none) and nothing == 0.0
+    across = np.linspace(-0.5, 0.5, base.shape[1])[None, :, None]
+    for gradient in (across, np.swapaxes(across, 0, 1)):
+        _, uneven = ambient.dark_levels(noisy + (0.03 + 0.08 * gradient) * WARM, scene)
+        assert 0.01 < uneven < 0.05
+
+
 @settings(max_examples=40, deadline=None)
 @given(arrays(np.float64, (12, 12, 3), elements=st.floats(0.0, 1.0)), st.floats(0.0, 0.2))
 def test_rough_offset_never_exceeds_the_dark_level(image, level):

@@ -110,6 +110,23 @@ NOISE_MARGIN = 2.0
 # An offset this large (share of full scale) is worth telling: it costs 8-bit levels and may
 # not be uniform.
 AMBIENT_WARN = 0.01
+# A room-light offset costs the confidence its share of the file's levels (AMBIENT_COST per unit),
+# not more: measured on the disc's dark part and subtracted, a uniform offset left the error as it
+# was (synthetic spectra of the training prior, `pose_errors --synthetic --lamps 8 --no-truth`,
+# 638 photos: ambient 3 % / 5 % read ×1.00–1.02 nominal's MAE on every set-up), and room light
+# that is not uniform (lamps mirrored or diffracted by the disc) is what the unexplained-residual
+# check sees. At 5 per unit (before) those photos lost 15–25 % of their confidence for nothing:
+# r(confidence, MAE) over the 638 −0.746 → −0.763 at 1 (within each lamp −0.360 → −0.371).
+# An offset below zero stays at 5: the dark parts were clipped away before the file was written.
+AMBIENT_COST = 1.0
+BLACK_LEVEL_COST = 5.0
+# What one subtracted offset leaves: room light brighter on one side of the disc (the dark
+# pixels' medians of its two halves differ by this share of full scale, ambient.dark_levels).
+# Synthetic, cd-default at 384 px, two lamps, 4–8 % room light with a gradient across the frame
+# (scratch): 0.004–0.007 read as a uniform offset did, 0.012 within ±20 % of it, 0.026 ×1.5–2.1
+# the MAE. Told from UNEVEN_WARN; the confidence falls by UNEVEN_COST per unit beyond it.
+UNEVEN_WARN = 0.01
+UNEVEN_COST = 25.0
 Progress = Callable[[float, str], None]
 
 __all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
@@ -273,16 +290,22 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         score *= max(0.2, 1.0 - 2.0 * bad)
     ambient, below = float(np.max(analysis.ambient)), float(np.min(analysis.ambient))
     stats["ambient_offset"] = ambient if ambient >= -below else below
+    uneven = stats["ambient_uneven"] = float(analysis.ambient_uneven)
+    if uneven > UNEVEN_WARN:
+        warnings.append(f"the room light is uneven: the disc's dark part reads {100 * uneven:.1f}% of full scale more "
+                        "on one side than on the other, and only its average could be subtracted — darken the room, "
+                        "or shade the disc from the other lights")
+        score *= max(0.3, 1.0 - UNEVEN_COST * (uneven - UNEVEN_WARN))
     if ambient >= AMBIENT_WARN:
         warnings.append(f"room light (or the camera's black level) adds {100 * ambient:.1f}% of full scale to the "
                         "whole photo: it was measured on the dark part of the disc and subtracted — a darker room "
                         "is more accurate")
-        score *= max(0.5, 1.0 - 5.0 * ambient)
+        score *= max(0.5, 1.0 - AMBIENT_COST * ambient)
     elif below <= -AMBIENT_WARN:
         warnings.append(f"the photo's dark parts read {100 * -below:.1f}% of full scale below zero (a black level "
                         "subtracted too far, or twice): it was measured on the dark part of the disc and added back "
                         "— check the raw conversion's black level")
-        score *= max(0.5, 1.0 + 5.0 * below)
+        score *= max(0.5, 1.0 + BLACK_LEVEL_COST * below)
     # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
     peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
     if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..readout.ambient import dark_offset, readout_pixels, rough_offset
+from ..readout.ambient import dark_levels, readout_pixels, rough_offset
 from ..calibration.calibration import Calibration, calibration_warning
 from ..calibration.censoring import uncensor
 from ..photo.clipping import clipped_channels
@@ -171,6 +171,7 @@ class Reading:
     response: NDArray[np.float64]  # R[bin, λ] without the camera
     matrix: NDArray[np.float64]  # (NB, 3, 81) feature forward matrix with the solving camera
     ambient: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))  # offset removed per channel
+    ambient_uneven: float = 0.0  # how much more that offset is on one half of the disc (ambient.dark_levels)
     timing_ms: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -602,7 +603,7 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
     # Without a cache, the kernel is evaluated only where the lobe can be visible or the dark
     # is uncertain: the same readout and offset as from every pixel (tests/test_pixel_survey.py).
     lobe: PixelDiffraction | LobePixels = readout_pixels(scene) if pixels is None else pixels
-    ambient = dark_offset(rgb, scene, excluded, lobe)
+    ambient, uneven = dark_levels(rgb, scene, excluded, lobe)
     per_pixel = lobe.pixels if isinstance(lobe, LobePixels) else lobe
     response = None
     if posed.display is not None and posed.calibration is not None and posed.calibration.pipeline is not None:
@@ -641,7 +642,7 @@ def read_posed(posed: Posed, pixels: PixelDiffraction | None = None,
         raise NoDiscError(f"no CD rainbow found in {name}{hint}: {advice}")
     t3 = time.perf_counter()
     return Reading(posed=posed, scene=scene, readout=readout, uncalibrated=measured, response=response,
-                   matrix=matrix, ambient=ambient,
+                   matrix=matrix, ambient=ambient, ambient_uneven=uneven,
                    timing_ms={**posed.timing_ms, "readout": (t2 - t1) * 1e3, "forward": (t3 - t2) * 1e3})
 
 

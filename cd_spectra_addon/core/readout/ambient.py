@@ -28,7 +28,7 @@ MIN_DARK_PIXELS = 200
 INVISIBLE = 1e-4  # lobe visibility below which a pixel carries no diffracted light
 GLINT_UV = 0.05  # hypot(u, v) within which a pixel may show the mirror glint or its halo
 
-__all__ = ["MIN_OFFSET", "rough_offset", "dark_offset", "readout_pixels"]
+__all__ = ["MIN_OFFSET", "rough_offset", "dark_offset", "dark_levels", "readout_pixels"]
 
 
 def _significant(offset: NDArray[np.float64], signed: bool = False) -> NDArray[np.float64]:
@@ -84,6 +84,14 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
     """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
     such pixels or the offset is insignificant). ``pixels``: the scene's diffraction coordinates
     of all its disc pixels, or its :func:`readout_pixels`, where the caller has them."""
+    return dark_levels(rgb, scene, excluded, pixels)[0]
+
+
+def dark_levels(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
+                pixels: PixelDiffraction | LobePixels | None = None) -> tuple[NDArray[np.float64], float]:
+    """:func:`dark_offset` and how uneven that offset is over the disc (:func:`_unevenness`; 0
+    where no offset was found): one uniform offset is what is subtracted, so room light brighter
+    on one side of the disc than the other is left in the rainbow's colours."""
     lobe = readout_pixels(scene) if pixels is None else pixels
     px = lobe.pixels if isinstance(lobe, LobePixels) else lobe
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
@@ -106,11 +114,30 @@ def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.boo
             dark = px.index[(px.radius_mm < hub_mm) & ~(np.hypot(px.u, px.v) < GLINT_UV)]
         dark = dark[usable(dark)]
     if dark.size < MIN_DARK_PIXELS:
-        return np.zeros(3)
+        return np.zeros(3), 0.0
     values = flat[dark]
     if _insignificant(values, None, 50.0) and not _below_zero(values):
-        return np.zeros(3)
-    return _significant(np.median(values, axis=0), signed=True)
+        return np.zeros(3), 0.0
+    offset = _significant(np.median(values, axis=0), signed=True)
+    if not np.any(offset):
+        return offset, 0.0
+    return offset, _unevenness(values, dark, np.asarray(rgb).shape[1])
+
+
+def _unevenness(values: NDArray[np.float64], index: NDArray[np.int64], width: int) -> float:
+    """The largest difference of the dark pixels' per-channel medians between the two halves of
+    the disc (left/right of their median column, above/below their median row): a uniform offset
+    reads ~0 (noise over hundreds of pixels), a light from one side its gradient across the disc."""
+    rows, cols = np.divmod(index, width)
+    spread = 0.0
+    for coord in (cols, rows):
+        cut = np.median(coord)
+        low, high = coord < cut, coord > cut
+        if np.count_nonzero(low) < MIN_DARK_PIXELS // 2 or np.count_nonzero(high) < MIN_DARK_PIXELS // 2:
+            continue  # the dark pixels lie in a line: no second half to compare
+        gap = np.abs(np.median(values[low], axis=0) - np.median(values[high], axis=0))
+        spread = max(spread, float(np.max(gap)))
+    return spread
 
 
 def _below_zero(values: NDArray[np.float64]) -> bool:
