@@ -331,6 +331,39 @@ def test_uniform_room_light_is_told_and_costs_only_its_share_of_the_levels(tmp_p
                                                     * (uneven - estimate_module.UNEVEN_WARN)) + 1e-9
 
 
+def test_a_bright_rainbow_read_where_the_disc_is_dark_is_not_called_underexposed(tmp_path):
+    """The photo's rainbow moved 80 px sideways and read at the capture that puts it where it was:
+    that readout is dark while the photo's rainbow is bright. It must not be told to expose longer
+    (the fit, not the exposure, is wrong), and its confidence falls by MISPLACED_CONFIDENCE; the
+    same photo read where its rainbow is keeps its confidence and gets no such warning."""
+    from cd_spectra_addon.core.inverse.estimate import estimate_image
+    from cd_spectra_addon.core.inverse.load import load_for_estimate
+    from cd_spectra_addon.core.pose.result import PoseFit
+
+    name = "phone-distant-lamp"
+    preset = load_preset(name).with_image_size(256)
+    scene = Scene(preset)
+    img, _ = photo.expose(photo.linear_photo(render_cube(scene, supersample=3), known_lamp_spd("incandescent"),
+                                             load_camera(DEFAULT_CAMERA)), 1.0, photo.track_mask(scene))
+    img = np.minimum(photo.add_noise(img, 0.01, np.random.default_rng(0)), 1.0)
+    c = preset.camera
+    exif = photo.exif_for(c.focal_length_mm, c.sensor_width_mm, c.image_size_px[0], DEFAULT_CAMERA)
+    read = {}
+    for shift in (0, 80):
+        path = tmp_path / f"shift{shift}.png"
+        photo.write_photo(path, np.roll(img, shift, axis=1), "png", exif)
+        loaded = load_for_estimate(path, load_preset(name))
+        height, width = loaded.rgb.shape[:2]
+        truth = PoseFit.of_scene(Scene(load_preset(name).with_image_size(width, height)))
+        read[shift] = estimate_image(loaded, preset=name, fit=truth)
+    here, moved = read[0], read[80]
+    assert not any("dark where" in w for w in here.warnings) and here.confidence > 0.5
+    assert sum("dark where the fitted capture puts it" in w for w in moved.warnings) == 1
+    assert not any("longer exposure" in w or "very dark" in w for w in moved.warnings)
+    assert moved.extra["checks"]["photo_level"] > estimate_module.MISPLACED_RATIO * 0.01
+    assert moved.confidence <= estimate_module.MISPLACED_CONFIDENCE
+
+
 @pytest.mark.parametrize("name", ["cd-default", "phone-near-axis", "tripod-oblique", "phone-distant-lamp"])
 def test_a_rainbow_no_capture_explains_is_told_what_to_check_for_its_set_up(name):
     """An oblique set-up has no axis to put camera and lamp on: its warning says where the

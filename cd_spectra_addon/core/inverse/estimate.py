@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from ..rendition.result import rendition as rendition_figures
 from ..spectra import colour
 from ..spectra.colour import DEFAULT_WORKING_SPACE
-from .stages import (DIM_LEVEL_8BIT, profile_residual, relative_noise, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
+from .stages import (BRIGHTEST_SHARE, DIM_LEVEL_8BIT, profile_residual, relative_noise, MIN_COVERAGE_NM, OPERATING_POINTS, Reading, Spectrum, pose_photo, read_posed,
                      spectrum)
 from ..calibration.calibration import (POOR_CALIBRATION_CONFIDENCE, Calibration, calibration_check,
                                        calibration_warning, load_calibration)
@@ -127,6 +127,14 @@ BLACK_LEVEL_COST = 5.0
 # the MAE. Told from UNEVEN_WARN; the confidence falls by UNEVEN_COST per unit beyond it.
 UNEVEN_WARN = 0.01
 UNEVEN_COST = 25.0
+LOW_SNR = 30.0  # a readout's peak over its median noise below which the user is told to expose longer
+# The photo's rainbow level (_rainbow_level) over the readout's peak: ≤ 1.05 on synthetic
+# photos of every set-up whose capture was found (nominal, combined errors, a lamp of σ 0.001: 0.67–1.30),
+# 850–1090 where the fit put its rainbow on the dark disc (phone-distant-lamp on a black cloth, two
+# of 18 photos of captures 1, 10, 11; scratch). Past MISPLACED_RATIO the photo is not called dark.
+MISPLACED_RATIO = 10.0
+RAINBOW_CHROMA = 0.5  # (max − min) / max of a pixel's channels that counts as the rainbow's colour
+MISPLACED_CONFIDENCE = 0.1
 Progress = Callable[[float, str], None]
 
 __all__ = ["AUTO", "estimate_image", "estimate_photo", "camera_for", "camera_prior_for", "resolve_camera",
@@ -200,6 +208,15 @@ def _unexplained(readout: Readout, residual: float) -> float:
     noisy photo's misfit is not a wrong capture."""
     noise = NOISE_MARGIN * relative_noise(readout)
     return math.sqrt(max(residual * residual - noise * noise, 0.0))
+
+
+def _rainbow_level(rgb: NDArray[np.float64], excluded: NDArray[np.bool_]) -> float:
+    """The level the brightest BRIGHTEST_SHARE of the photo's strongly coloured pixels reach (the
+    rainbow's: a lit table, room light or a grey label around the disc is not coloured)."""
+    usable = rgb[~np.asarray(excluded)]
+    top = np.max(usable, axis=1) if usable.size else np.zeros(0)
+    coloured = top[(top - np.min(usable, axis=1)) > RAINBOW_CHROMA * top] if usable.size else top
+    return float(np.quantile(coloured, 1.0 - BRIGHTEST_SHARE)) if coloured.size else 0.0
 
 
 def geometry_mismatch(preset: Preset) -> str:
@@ -308,7 +325,22 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         score *= max(0.5, 1.0 + BLACK_LEVEL_COST * below)
     # A very dark 8-bit rainbow first: it also inflates the geometry and readout residuals below.
     peak = float(np.max(meas[valid])) if np.any(valid) else 0.0
-    if image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
+    noise = float(np.median(readout.noise[valid])) if np.any(valid) else 1.0
+    snr = peak / max(noise, 1e-12)
+    stats["snr"] = snr
+    # ...unless the photo is bright and only the fitted capture's rainbow is dark: then the fit put
+    # the rainbow where the disc is dark, and exposure advice would be wrong (looked at only for a
+    # dim readout: the photo's level costs a pass over its pixels).
+    misplaced = False
+    if peak < DIM_LEVEL_8BIT or snr < LOW_SNR:
+        level = stats["photo_level"] = _rainbow_level(analysis.posed.rgb, analysis.posed.excluded)
+        misplaced = level >= DIM_LEVEL_8BIT and level > MISPLACED_RATIO * peak
+    if misplaced:
+        warnings.append(f"the rainbow is bright in the photo ({100 * level:.0f}% of full scale) but dark where the "
+                        f"fitted capture puts it ({100 * peak:.1f}%): the exposure is fine, the capture was not found — "
+                        "the spectrum is not the lamp's")
+        score *= MISPLACED_CONFIDENCE
+    elif image is not None and image.encoding.endswith("-8") and 0 < peak < DIM_LEVEL_8BIT:
         warnings.append(f"the rainbow is very dark (its brightest part is {100 * peak:.1f}% of full scale), so 8-bit "
                         "rounding limits the accuracy — use a longer exposure or save 16-bit/raw")
         score *= max(0.2, peak / DIM_LEVEL_8BIT)
@@ -333,12 +365,9 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
                         "or the file's processing (a small JPEG keeps its colours at half its size) is not what the "
                         "estimate assumed — treat it as approximate")
     score *= float(np.clip(RESIDUAL_OK / max(unexplained, 1e-12), RESIDUAL_FLOOR, 1.0))
-    noise = float(np.median(readout.noise[valid])) if np.any(valid) else 1.0
-    snr = peak / max(noise, 1e-12)
-    stats["snr"] = snr
-    if snr < 30:
+    if snr < LOW_SNR and not misplaced:
         warnings.append("low signal: the rainbow is dim or noisy — use a longer exposure or a brighter lamp")
-        score *= max(0.2, snr / 30)
+        score *= max(0.2, snr / LOW_SNR)
     if generic:
         warnings.append("generic camera profile: pick your camera (or calibrate) for the best accuracy")
         score *= 0.85
