@@ -329,6 +329,18 @@ def test_uniform_room_light_is_told_and_costs_only_its_share_of_the_levels(tmp_p
     assert uneven > estimate_module.UNEVEN_WARN and sum("uneven" in w for w in sided.warnings) == 1
     assert sided.confidence <= lit.confidence * max(0.3, 1.0 - estimate_module.UNEVEN_COST
                                                     * (uneven - estimate_module.UNEVEN_WARN)) + 1e-9
+    # A capture that does not explain the photo is told so, not that the room light is uneven
+    # (its "dark part" may be rainbow).
+    from cd_spectra_addon.core.inverse.estimate import estimate_image
+    from cd_spectra_addon.core.inverse.load import load_for_estimate
+    from cd_spectra_addon.core.inverse.stages import pose_photo
+
+    preset = load_preset(PRESET)
+    loaded = load_for_estimate(tmp_path / "side.png", preset)
+    fit = pose_photo(loaded, preset, cam).fit
+    doubted = estimate_image(loaded, preset=PRESET, fit=replace(fit, residual=2 * estimate_module.GEOMETRY_WARN))
+    assert not any("uneven" in w for w in doubted.warnings)
+    assert any("does not match a CD" in w for w in doubted.warnings)
 
 
 def test_a_bright_rainbow_read_where_the_disc_is_dark_is_not_called_underexposed(tmp_path):

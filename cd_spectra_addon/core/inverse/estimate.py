@@ -127,6 +127,9 @@ BLACK_LEVEL_COST = 5.0
 # the MAE. Told from UNEVEN_WARN; the confidence falls by UNEVEN_COST per unit beyond it.
 UNEVEN_WARN = 0.01
 UNEVEN_COST = 25.0
+# The share of the photo's energy the fitted capture leaves unexplained past which the photo is
+# told that the rainbow does not match a CD seen from the preset's geometry.
+GEOMETRY_WARN = 0.15
 LOW_SNR = 30.0  # a readout's peak over its median noise below which the user is told to expose longer
 # The photo's rainbow level (_rainbow_level) over the readout's peak: ≤ 1.05 on synthetic
 # photos of every set-up whose capture was found (nominal, combined errors, a lamp of σ 0.001: 0.67–1.30),
@@ -308,7 +311,9 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
     ambient, below = float(np.max(analysis.ambient)), float(np.min(analysis.ambient))
     stats["ambient_offset"] = ambient if ambient >= -below else below
     uneven = stats["ambient_uneven"] = float(analysis.ambient_uneven)
-    if uneven > UNEVEN_WARN:
+    # Only where the capture explains the photo: a capture in the wrong place takes rainbow for
+    # the dark part, and the geometry's warning says what to fix.
+    if uneven > UNEVEN_WARN and analysis.fit.residual <= GEOMETRY_WARN:
         warnings.append(f"the room light is uneven: the disc's dark part reads {100 * uneven:.1f}% of full scale more "
                         "on one side than on the other, and only its average could be subtracted — darken the room, "
                         "or shade the disc from the other lights")
@@ -354,9 +359,9 @@ def _confidence(readout: Readout, matrix: NDArray[np.float64], spd: NDArray[np.f
         warnings.append(f"the disc is not centred: the camera is aimed {aim_deg:.0f}° away from the disc's centre — aim "
                         "it at the centre (a cropped photo also moves it: use the whole frame)")
         score *= max(0.2, 1.0 - (aim_deg - AIM_OK_DEG) / AIM_SPAN_DEG)
-    if analysis.fit.residual > 0.15:
+    if analysis.fit.residual > GEOMETRY_WARN:
         warnings.append(geometry_mismatch(preset))
-        score *= max(0.2, 1.0 - 2.0 * (analysis.fit.residual - 0.15))
+        score *= max(0.2, 1.0 - 2.0 * (analysis.fit.residual - GEOMETRY_WARN))
     unexplained = _unexplained(readout, residual)
     stats["unexplained"] = unexplained
     if unexplained > RESIDUAL_WARN:
