@@ -82,12 +82,12 @@ def test_room_light_is_measured_on_the_dark_disc():
     says are dark; a photo without one gets exactly zero (nominal photos stay as they were)."""
     scene, image = _capture(Pose(light_offset_mm=(30.0, 0.0)))
     offset = 0.02 * WARM
-    found = ambient.dark_offset(np.minimum(image, 1.0) + offset, scene)
+    found = ambient.dark_levels(np.minimum(image, 1.0) + offset, scene)[0]
     assert np.allclose(found, offset, rtol=0.1)
-    assert np.all(ambient.dark_offset(np.minimum(image, 1.0), scene) == 0.0)
+    assert np.all(ambient.dark_levels(np.minimum(image, 1.0), scene)[0] == 0.0)
     nominal_scene, nominal = _capture(Pose())
-    assert np.all(ambient.dark_offset(nominal, nominal_scene) == 0.0)
-    assert np.allclose(ambient.dark_offset(nominal + offset, nominal_scene), offset, rtol=0.1)  # the hub
+    assert np.all(ambient.dark_levels(nominal, nominal_scene)[0] == 0.0)
+    assert np.allclose(ambient.dark_levels(nominal + offset, nominal_scene)[0], offset, rtol=0.1)  # the hub
 
 
 def test_room_light_from_one_side_is_measured_as_uneven():

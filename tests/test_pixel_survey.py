@@ -20,7 +20,7 @@ from cd_spectra_addon.core.photo.image_formats import ExifInfo
 from cd_spectra_addon.core.photo.images import LinearImage
 from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.readout import ambient
-from cd_spectra_addon.core.readout.ambient import GLINT_UV, INVISIBLE, dark_offset, readout_pixels
+from cd_spectra_addon.core.readout.ambient import GLINT_UV, INVISIBLE, dark_levels, readout_pixels
 from cd_spectra_addon.core.readout.readout import MIN_VISIBILITY, N_FEATURES, extract_readout
 from cd_spectra_addon.core.spectra.grid import feature_bins
 from cd_spectra_addon.core.scene.capture import Pose, Scene, load_preset
@@ -98,9 +98,9 @@ def test_a_rendered_photo_reads_the_same_from_the_survey_as_from_every_pixel(nam
     saturated = rgb.max(axis=2) >= 1.0
     full = pixel_diffraction(scene)
     lobe = readout_pixels(scene)
-    ambient = dark_offset(rgb, scene, saturated, full)
-    assert np.array_equal(dark_offset(rgb, scene, saturated, lobe), ambient)
-    assert np.array_equal(dark_offset(rgb, scene, saturated), ambient)
+    ambient = dark_levels(rgb, scene, saturated, full)[0]
+    assert np.array_equal(dark_levels(rgb, scene, saturated, lobe)[0], ambient)
+    assert np.array_equal(dark_levels(rgb, scene, saturated)[0], ambient)
     assert (np.max(ambient) > 0) == (offset > 0)
     want = extract_readout(rgb - ambient, saturated, scene, full)
     got = extract_readout(rgb - ambient, saturated, scene, lobe.pixels)
@@ -179,11 +179,11 @@ def test_a_black_level_subtracted_too_far_is_added_back():
                           photo.track_mask(scene))
     rgb = photo.add_noise(img, 0.005, np.random.default_rng(2))
     none = np.zeros(rgb.shape[:2], bool)
-    assert not np.any(dark_offset(rgb, scene, none))
-    low = dark_offset(rgb - 0.02, scene, none)
+    assert not np.any(dark_levels(rgb, scene, none)[0])
+    low = dark_levels(rgb - 0.02, scene, none)[0]
     assert np.allclose(low, -0.02, atol=0.002)
     want = extract_readout(rgb, none, scene)
     got = extract_readout(rgb - 0.02 - low, none, scene)
     top = np.max(want.values)
     assert np.max(np.abs(got.values - want.values)) < 0.01 * top
-    assert not np.any(dark_offset(np.clip(rgb - 0.02, 0.0, None), scene, none) < 0)  # clipped codes: nothing to add
+    assert not np.any(dark_levels(np.clip(rgb - 0.02, 0.0, None), scene, none)[0] < 0)  # clipped codes: nothing to add

@@ -28,7 +28,7 @@ MIN_DARK_PIXELS = 200
 INVISIBLE = 1e-4  # lobe visibility below which a pixel carries no diffracted light
 GLINT_UV = 0.05  # hypot(u, v) within which a pixel may show the mirror glint or its halo
 
-__all__ = ["MIN_OFFSET", "rough_offset", "dark_offset", "dark_levels", "readout_pixels"]
+__all__ = ["MIN_OFFSET", "rough_offset", "dark_levels", "readout_pixels"]
 
 
 def _significant(offset: NDArray[np.float64], signed: bool = False) -> NDArray[np.float64]:
@@ -79,19 +79,14 @@ def readout_pixels(scene: Scene, min_visibility: float = MIN_VISIBILITY) -> Lobe
                        lambda_nm=(FEATURE_EDGE_NM, FEATURE_EDGE_NM + N_FEATURES * FEATURE_STEP_NM))
 
 
-def dark_offset(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
-                pixels: PixelDiffraction | LobePixels | None = None) -> NDArray[np.float64]:
-    """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
-    such pixels or the offset is insignificant). ``pixels``: the scene's diffraction coordinates
-    of all its disc pixels, or its :func:`readout_pixels`, where the caller has them."""
-    return dark_levels(rgb, scene, excluded, pixels)[0]
-
-
 def dark_levels(rgb: NDArray[np.float64], scene: Scene, excluded: NDArray[np.bool_] | None = None,
                 pixels: PixelDiffraction | LobePixels | None = None) -> tuple[NDArray[np.float64], float]:
-    """:func:`dark_offset` and how uneven that offset is over the disc (:func:`_unevenness`; 0
-    where no offset was found): one uniform offset is what is subtracted, so room light brighter
-    on one side of the disc than the other is left in the rainbow's colours."""
+    """Per-channel median of the disc pixels the fitted geometry says are dark (zero if too few
+    such pixels or the offset is insignificant), and how uneven that offset is over the disc
+    (:func:`_unevenness`; 0 where no offset was found): one uniform offset is what is subtracted,
+    so room light brighter on one side of the disc than the other is left in the rainbow's
+    colours. ``pixels``: the scene's diffraction coordinates of all its disc pixels, or its
+    :func:`readout_pixels`, where the caller has them."""
     lobe = readout_pixels(scene) if pixels is None else pixels
     px = lobe.pixels if isinstance(lobe, LobePixels) else lobe
     flat = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
