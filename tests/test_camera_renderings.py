@@ -55,3 +55,21 @@ def test_jpegs_are_exposed_as_the_readme_says_in_third_stops(tmp_path):
     # a third of a stop brighter would still blink: it is the brightest exposure that does not
     brighter = ph.shooter.native(lamp, camera, 3, UPSAMPLE, exposure=STOP ** (round(-3 * ev) - 1))
     assert ph.blinking(ordinary(brighter, camera)) > BLINK_SHARE
+
+
+def test_every_held_out_rendering_writes_a_brighter_colour_no_darker():
+    """A camera's tone curve is monotone: the same colour, exposed brighter, is never written darker
+    in any channel (the `phone` look's roll-off once turned past 0.7 and wrote highlights darker than
+    midtones, which no camera does and no calibration can undo)."""
+    from training.evaluation.renderings import RENDERINGS
+
+    camera = load_camera(SETTINGS[0].camera)
+    colours = np.random.default_rng(3).uniform(0.02, 1.0, (64, 3))
+    exposures = np.geomspace(0.05, 4.0, 40)
+    for name, render in RENDERINGS.items():
+        # Each exposure a uniform 8×8 frame (local tone mapping sees a uniform neighbourhood).
+        frames = np.stack([render(np.broadcast_to(e * colours[:, None, None, :], (64, 8, 8, 3)).copy(), camera)
+                           for e in exposures])
+        steps = np.diff(frames[:, :, 4, 4, :], axis=0)
+        assert steps.min() > -1e-9, f"{name}: a brighter exposure wrote a channel darker by {-steps.min():.3f}"
+        assert frames[-1].max() > frames[0].max(), name

@@ -47,6 +47,7 @@ __all__ = ["RENDERINGS", "Rendering", "camera_to_srgb", "libraw_render", "white_
 Rendering = Callable[[NDArray[np.float64], CameraProfile], NDArray[np.float64]]
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 WHITE_K = 5500.0
+ROLL_KNEE = 0.7  # the phone look's highlight roll-off starts here (linear display value)
 CONTRAST = 6.0  # the logistic S-curve's steepness (blended half and half with the plain curve)
 
 
@@ -138,7 +139,10 @@ def phone(native: NDArray[np.float64], camera: CameraProfile) -> NDArray[np.floa
     local = _box_blur(y, max(2, y.shape[1] // 40))
     lift = np.clip(0.35 / np.maximum(local, 0.02), 1.0, 2.5) ** 0.5  # dark surroundings lifted up to 1.6×
     display = display * lift[..., None]
-    rolled = display / (1.0 + np.clip(display - 0.7, 0.0, None) / 0.3 * 0.5)  # highlight roll-off above 0.7
+    # Highlight roll-off: a shoulder from 0.7, slope 1 there, full scale at 1.3 (a brighter colour
+    # is never written darker: every camera's tone curve is monotone).
+    over = np.clip(display - ROLL_KNEE, 0.0, None)
+    rolled = np.minimum(display, ROLL_KNEE) + over / (1.0 + over / (1.0 - ROLL_KNEE) * 0.5)
     return srgb_decode(_s_curve(srgb_encode(np.clip(rolled, 0.0, 1.0))))
 
 
