@@ -73,3 +73,12 @@ def test_every_held_out_rendering_writes_a_brighter_colour_no_darker():
         steps = np.diff(frames[:, :, 4, 4, :], axis=0)
         assert steps.min() > -1e-9, f"{name}: a brighter exposure wrote a channel darker by {-steps.min():.3f}"
         assert frames[-1].max() > frames[0].max(), name
+
+
+def test_the_section_says_how_well_the_confidence_orders_its_rows_errors():
+    from training.evaluation.camera_renderings import confidence_ranking
+
+    rows = [{"n": 10, "mae_400_700": m, "confidence": c} for m, c in ((0.01, 0.99), (0.02, 0.9), (0.4, 0.05))]
+    assert "over the 3 rows read: rank correlation -1.00" in confidence_ranking(rows + [{"n": 0}])
+    rows[0]["confidence"] = 0.01  # the best estimate the least trusted
+    assert "rank correlation 0.50" in confidence_ranking(rows)

@@ -66,7 +66,7 @@ from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.spectrum.model import load_model
 
 from training.evaluation.camera_files import EXTERNAL_DIR, UNKNOWN_CAMERA, Shooter
-from training.evaluation.evaluate import metrics, summary
+from training.evaluation.evaluate import correlation, metrics, summary
 from training.evaluation.lamps import Lamp, lspdd_lamps
 from training.evaluation.learned_rendering import LearnedRendering, learn_from_file
 from training.evaluation.renderings import RENDERINGS, libraw_render, white_gains, xyz_to_camera
@@ -307,7 +307,8 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
         lines.append(f"| {r['setting_label']} | {r['row']} | {r['mae_400_700']:.4f} ({r['mae_400_700_median']:.4f}) | "
                      f"{ratio} | {r['delta_uv_prime']:.4f} | {r['confidence']:.2f} | {exposure} | {warned} | "
                      f"{explains} |")
-    lines += ["", "The last column also gives, for a CIE A + D65 calibration, its cross-check as `calibrate` prints it: "
+    lines += ["", confidence_ranking(results),
+              "", "The last column also gives, for a CIE A + D65 calibration, its cross-check as `calibrate` prints it: "
               "each known lamp read with the calibration the other alone gives (MAE 400–700 against its known SPD). "
               f"Judged for the profiled camera (above {CROSS_CHECK_LIMIT:.3f}, 3× the worst of the calibration's own "
               "family of renderings, the calibration warns that it does not carry over and estimates lose "
@@ -316,6 +317,17 @@ def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float,
               "Δu'v' ≤ 0.002 on every held-out rendering, for the profiled camera and for the phone; the phone's "
               "generic profile + calibration within 1.3× of its own profile on RAW.", "", real_note, end]
     return "\n".join(lines)
+
+
+def confidence_ranking(results: list[dict[str, Any]]) -> str:
+    """How well the rows' confidence orders their errors: a user can only act on a confidence
+    that is lower where the estimate is worse (rank correlation with MAE; −1 is perfect)."""
+    read = [r for r in results if r.get("n", 0)]
+    mae = np.array([r["mae_400_700"] for r in read])
+    conf = np.array([r["confidence"] for r in read])
+    rank = correlation(list(np.argsort(np.argsort(mae))), list(np.argsort(np.argsort(conf))))
+    return (f"Confidence against MAE over the {len(read)} rows read: rank correlation {rank:.2f} (Pearson "
+            f"{correlation(list(mae), list(conf)):.2f}).")
 
 
 def learned_renderings(folder: Path) -> list[LearnedRendering]:

@@ -165,7 +165,8 @@ def rendition_summary(rows: list[dict[str, float]]) -> dict[str, Any]:
     return out
 
 
-def _correlation(a: list[float], b: list[float]) -> float:
+def correlation(a: list[float], b: list[float]) -> float:
+    """Pearson's r over the pairs where both are finite; NaN with fewer than 3 or no spread."""
     x, y = np.asarray(a, float), np.asarray(b, float)
     ok = np.isfinite(x) & np.isfinite(y)
     if ok.sum() < 3 or np.std(x[ok]) == 0 or np.std(y[ok]) == 0:
@@ -368,7 +369,7 @@ def main(argv: list[str] | None = None) -> int:
                             "colour_science": summary([r for r, lamp in zip(rows, lamps)
                                                         if lamp.source != "LSPDD"]),
                             "families": {k: summary(v) for k, v in sorted(fam.items())},
-                            "confidence_vs_error": _correlation([r["confidence"] for r in rows],
+                            "confidence_vs_error": correlation([r["confidence"] for r in rows],
                                                                 [r["mae_400_700"] for r in rows])}
             if method == METHOD_MODEL:
                 estimates_model = ests
@@ -410,7 +411,7 @@ def main(argv: list[str] | None = None) -> int:
         result["robustness"] = robustness
         # Does a low confidence flag a bad estimate? Only answerable across conditions: nominal
         # captures raise no warning, so their confidence is constant.
-        result["robustness_confidence_vs_error"] = _correlation([r["confidence"] for r in pooled],
+        result["robustness_confidence_vs_error"] = correlation([r["confidence"] for r in pooled],
                                                                 [r["mae_400_700"] for r in pooled])
 
         # Cameras: every camera photographing the subset, with its own profile.

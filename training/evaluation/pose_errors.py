@@ -53,6 +53,7 @@ from cd_spectra_addon.core.pose.result import PoseFit
 from cd_spectra_addon.core.planning.capture_advice import capture_angles
 from cd_spectra_addon.core.scene.relative_pose import near_axis
 
+from training.evaluation.evaluate import correlation
 from training.evaluation.lamps import Lamp, lspdd_lamps
 from training.simulation import photo
 from training.simulation.render_numpy import render_cube
@@ -264,13 +265,6 @@ def run_case(case: Case, preset: Preset, lamps: list[Lamp], model, tmp: Path, tr
             "captures": len(captures)}
 
 
-def _corr(a: list[float], b: list[float]) -> float:
-    x, y = np.asarray(a, float), np.asarray(b, float)
-    if x.size < 3 or np.std(x) == 0 or np.std(y) == 0:
-        return math.nan
-    return float(np.corrcoef(x, y)[0, 1])
-
-
 def _fmt(v: float, spec: str = ".3f") -> str:
     return "—" if not math.isfinite(v) else format(v, spec)
 
@@ -300,7 +294,7 @@ def setup_table(name: str, k: float, results: list[dict], n_lamps: int) -> list[
                  _fmt(float(np.mean(conf)) if conf else math.nan, ".2f"),
                  f"{len(res['refusals'])}/{n_lamps}",
                  _fmt(mean / nominal_mae if nominal_mae > 0 else math.nan, ".2f"),
-                 _fmt(_corr(conf, mae), ".2f"),
+                 _fmt(correlation(conf, mae), ".2f"),
                  _fmt(_mean(rows, "true_pose_mae") if rows and "true_pose_mae" in rows[0] else math.nan),
                  _fmt(_mean(rows, "dlambda_nm") if rows else math.nan, ".2f"),
                  pose]
@@ -308,7 +302,7 @@ def setup_table(name: str, k: float, results: list[dict], n_lamps: int) -> list[
     every = [r for res in results for r in res["rows"]]
     fit_s = _mean(every, "fit_s") if every else math.nan
     lines += ["", f"Confidence vs MAE over this set-up's estimates: r = "
-              f"{_fmt(_corr([r['confidence'] for r in every], [r['mae'] for r in every]), '.2f')} ({len(every)}); "
+              f"{_fmt(correlation([r['confidence'] for r in every], [r['mae'] for r in every]), '.2f')} ({len(every)}); "
               f"pose fit {_fmt(fit_s, '.2f')} s per photo on average.", ""]
     return lines
 
@@ -391,7 +385,7 @@ def report(per_setup: list[tuple[str, float, list[dict]]], n_lamps: int, combine
         every += [r for res in results for r in res["rows"]]
         messages += _messages(name, results)
     lines += [f"Confidence vs MAE over every estimate: r = "
-              f"{_fmt(_corr([r['confidence'] for r in every], [r['mae'] for r in every]), '.2f')} "
+              f"{_fmt(correlation([r['confidence'] for r in every], [r['mae'] for r in every]), '.2f')} "
               f"({len(every)} estimates; negative is good: low confidence where the error is large).", "",
               NOTES, "What the user is told (first refusal and most frequent warning per row):", "", *messages, "",
               f"Total {seconds:.0f} s on this machine.", ""]
