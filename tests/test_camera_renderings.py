@@ -82,3 +82,18 @@ def test_the_section_says_how_well_the_confidence_orders_its_rows_errors():
     assert "over the 3 rows read: rank correlation -1.00" in confidence_ranking(rows + [{"n": 0}])
     rows[0]["confidence"] = 0.01  # the best estimate the least trusted
     assert "rank correlation 0.50" in confidence_ranking(rows)
+
+
+def test_renderings_can_be_written_as_the_file_each_camera_writes(tmp_path):
+    """A DSLR writes a 4:2:2 fine JPEG and a phone a HEIC: the held-out renderings are measured on
+    those too (their own sections), read by the product as the in-camera files they are."""
+    from training.evaluation.camera_renderings import FILES, _section
+
+    camera = load_camera(SETTINGS[0].camera)
+    sections = {_section("rendering", UPSAMPLE, f) for f in FILES}
+    assert len(sections) == len(FILES) and _section("rendering", UPSAMPLE) == _section("rendering", UPSAMPLE, "jpeg")
+    for f in ("dslr-jpeg", "heic"):
+        (tmp_path / f).mkdir()
+        ph = Photographer(tmp_path / f, 64, file=f)
+        image = ph.jpeg(known_lamp_spd("incandescent"), camera, SETTINGS[0].exif, "ordinary", 3, "a")
+        assert image.processed and image.path.endswith(FILES[f][1]), (f, image.path)

@@ -26,7 +26,10 @@ most :data:`BLINK_SHARE` of the disc's tracks show a channel at a clipped code (
 with ``--metering raw`` (its own section), at the raw-peak metering with the highlight alert
 ignored: the renderings then write 10–60 % of the rainbow at code 255, and LibRaw clips raw
 channels after its white balance, before its matrix, which spoils the other channels of those
-pixels too. ``--upsample N``: photos N× the loaded size per side (its own section).
+pixels too. ``--upsample N``: photos N× the loaded size per side (its own section). ``--file``:
+the file the renderings are written as — ``jpeg`` (8-bit 4:2:0, quality 90: a phone's JPEG),
+``dslr-jpeg`` (4:2:2, quality 95: what a DSLR writes as its fine JPEG) or ``heic`` (a phone's 8-bit
+HEIC) — each but the first its own section.
 
 Real cameras' own renderings, learned from a RAW file and the JPEG its camera wrote
 (:mod:`.learned_rendering`), are applied to the same captures when ``--real-pairs`` names a
@@ -90,11 +93,17 @@ BLINK_SHARE = 0.001
 STOP = 2.0 ** (-1.0 / 3.0)
 MAX_STOPS = 15  # −5 EV at most
 METERINGS = ("rendering", "raw")
+# The file each rendering is written as: (training.simulation.photo format, file name suffix,
+# what the row calls it, how the section describes it). "jpeg" is the section README quotes.
+FILES = {"jpeg": ("jpg", ".jpg", "JPEG", "8-bit 4:2:0 quality 90 JPEG"),
+         "dslr-jpeg": ("jpg422", ".jpg", "JPEG", "DSLR's fine JPEG, 4:2:2 quality 95"),
+         "heic": ("heic", ".heic", "HEIC", "phone's 8-bit HEIC")}
 
 
-def _section(metering: str, upsample: int) -> tuple[str, str, str]:
-    """(start marker, end marker, json name) of the run's section: one per exposure rule and file size."""
-    tag = ("" if metering == "rendering" else " raw-metered") + ("" if upsample == UPSAMPLE else f" {upsample}x")
+def _section(metering: str, upsample: int, file: str = "jpeg") -> tuple[str, str, str]:
+    """(start marker, end marker, json name) of the run's section: one per exposure rule, file size and file kind."""
+    tag = ("" if metering == "rendering" else " raw-metered") + ("" if upsample == UPSAMPLE else f" {upsample}x") + (
+        "" if file == "jpeg" else f" {file}")
     name = "camera_renderings" + tag.replace(" ", "_").replace("-", "_") + ".json"
     return f"<!-- camera_renderings{tag}: start -->", f"<!-- camera_renderings{tag}: end -->", name
 Renderer = Callable[[NDArray[np.float64], CameraProfile], NDArray[np.float64]]
@@ -117,12 +126,14 @@ SETTINGS = [Setting("dslr", "Canon EOS 5D Mark III (profiled)", DEFAULT_CAMERA, 
 class Photographer:
     """The shooter of ``camera_files`` with other renderings: (file kind, rendering) → loaded photo."""
 
-    def __init__(self, tmp: Path, size: int, metering: str = "rendering", upsample: int = UPSAMPLE):
+    def __init__(self, tmp: Path, size: int, metering: str = "rendering", upsample: int = UPSAMPLE,
+                 file: str = "jpeg"):
         self.shooter = Shooter(tmp, size)
         self.tmp = tmp
         self.upsample = upsample  # the file's pixels per loaded pixel, per side
         self.metering = metering  # "rendering": README's step 5 (see BLINK_SHARE); "raw": the raw peak at 80 %
         self.compensation_ev: list[float] = []  # each JPEG's exposure compensation
+        self.file = file  # what the renderings are written as (a key of FILES)
 
     @property
     def preset(self):  # noqa: ANN201 - the shooter's preset
@@ -174,8 +185,9 @@ class Photographer:
             image = self._render(spd, camera, exif_name, rendering, seed, tag, exposure)
         self.compensation_ev.append(-stops / 3.0)
         exif = in_camera_exif(self._exif(exif_name, image.shape[1]))
-        path = self.tmp / f"{tag}.jpg"
-        photo.write_photo(path, image, "jpg", exif)
+        fmt, suffix, _, _ = FILES[self.file]
+        path = self.tmp / f"{tag}{suffix}"
+        photo.write_photo(path, image, fmt, exif)
         return self.shooter.read(path)
 
 
@@ -249,30 +261,34 @@ def _lamps(n: int) -> list[Lamp]:
 
 
 def report(results: list[dict[str, Any]], lamps: int, size: int, seconds: float, real_note: str,
-           metering: str = "rendering", upsample: int = UPSAMPLE) -> str:
-    start, end, _ = _section(metering, upsample)
+           metering: str = "rendering", upsample: int = UPSAMPLE, file: str = "jpeg") -> str:
+    start, end, _ = _section(metering, upsample, file)
     if metering == "rendering":
-        exposed = ("Every JPEG is exposed as README's capture step 5 says — no clipped (blinking) highlights in the "
-                   "coloured part: from the raw peak at 80 % of full scale, exposure compensation in 1/3 EV steps "
+        exposed = (f"Every {FILES[file][2]} is exposed as README's capture step 5 says — no clipped (blinking) "
+                   "highlights in the coloured part: from the raw peak at 80 % of full scale, exposure "
+                   "compensation in 1/3 EV steps "
                    f"until at most {100 * BLINK_SHARE:.1f} % of the disc's tracks show a channel at code ≥ "
                    f"{BLINK_CODE + 0.5:.0f}, what the loader counts as clipped (column "
                    "*exposure*: the mean compensation). Column *warned*: the photos whose estimate says they are "
                    "over-exposed.")
     else:
-        exposed = ("Every JPEG is exposed for the raw instead (its peak at 80 % of full scale), the highlight alert "
-                   "ignored: warm or saturated colours pass code 255 in 10–60 % of the rainbow's pixels. Column "
+        exposed = (f"Every {FILES[file][2]} is exposed for the raw instead (its peak at 80 % of full scale), "
+                   "the highlight alert ignored: warm or saturated colours pass code 255 in 10–60 % of the "
+                   "rainbow's pixels. Column "
                    "*warned*: the photos whose estimate says they are over-exposed.")
     variant = ("" if metering == "rendering" else ", over-exposed: the blinking highlights ignored") + (
-        "" if upsample == UPSAMPLE else f", from photos {upsample}× the loaded size per side")
+        "" if upsample == UPSAMPLE else f", from photos {upsample}× the loaded size per side") + (
+        "" if file == "jpeg" else f", written as a {FILES[file][3]}")
     title = "## " + ("The same" + variant if variant else "In-camera JPEGs from renderings the calibration never "
                      "modelled") + " (issue 20)"
     flags = ("" if metering == "rendering" else " --metering raw") + ("" if upsample == UPSAMPLE else
-                                                                       f" --upsample {upsample}")
+                                                                       f" --upsample {upsample}") + (
+        "" if file == "jpeg" else f" --file {file}")
     lines = [start, title, "", exposed, "",
              f"`python -m training.evaluation.camera_renderings --write{flags}` — {lamps} LSPDD lamps (evaluation "
              f"only, other lamps than the tables above), nominal pose, {size}×{size} px read from a photo {upsample}× "
              f"that per side (LibRaw's rendering: {2 * upsample}×, a pixel per photosite) by the product's decoders, 1 % sensor "
-             "noise, the shipped model; each JPEG is 8-bit 4:2:0 quality 90 with a camera's EXIF "
+             f"noise, the shipped model; each file is a {FILES[file][3]} with a camera's EXIF "
              "(sRGB, fixed white balance), calibrated by one CIE A photo rendered the same way, as `calibrate "
              "--known-lamp A` does, or by a CIE A and a D65 photo (same white balance and settings, each exposed as "
              "above), as `calibrate A.jpg D65.jpg --known-lamp A --known-lamp D65` does. "
@@ -376,9 +392,10 @@ def _cross_check_cell(calibration: dict[str, Any]) -> str:
     return "; cross-check " + ", ".join(parts) + flag
 
 
-def write_section(text: str, path: Path, metering: str = "rendering", upsample: int = UPSAMPLE) -> None:
+def write_section(text: str, path: Path, metering: str = "rendering", upsample: int = UPSAMPLE,
+                  file: str = "jpeg") -> None:
     """Replace (or append) this command's section of ``path``, leaving the rest as it is."""
-    start, end, _ = _section(metering, upsample)
+    start, end, _ = _section(metering, upsample, file)
     old = path.read_text(encoding="utf-8") if path.exists() else ""
     pattern = re.compile(re.escape(start) + r".*?" + re.escape(end), re.S)
     new = pattern.sub(lambda _: text, old) if pattern.search(old) else old.rstrip("\n") + "\n\n" + text + "\n"
@@ -401,6 +418,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--metering", choices=METERINGS, default="rendering",
                         help="rendering: each JPEG exposed as README's step 5 says (no blinking highlights); raw: "
                              "the raw peak at 80 %% of full scale, the highlights ignored (its own section)")
+    parser.add_argument("--file", choices=list(FILES), default="jpeg",
+                        help="what the renderings are written as: jpeg (4:2:0, q90), dslr-jpeg (4:2:2, q95), heic "
+                             "(8-bit); each but jpeg its own section")
     parser.add_argument("--write", action="store_true", help="write the section into bench/camera_files.md")
     args = parser.parse_args(argv)
     if args.upsample < 1:
@@ -418,14 +438,15 @@ def main(argv: list[str] | None = None) -> int:
     real_note = real_renderings_note(learned)
     results = []
     with tempfile.TemporaryDirectory() as tmp:
-        photographer = Photographer(Path(tmp), args.size, args.metering, args.upsample)
+        photographer = Photographer(Path(tmp), args.size, args.metering, args.upsample, args.file)
         for setting in [s for s in SETTINGS if s.key in args.settings.split(",")]:
             plan: list[tuple[str, str, str | Renderer | None, tuple[str, ...], str, str]] = [
                 ("RAW (DNG), own profile", "raw", None, (), setting.own, "")]
             if setting.key == "phone":
                 plan.append(("RAW (DNG), generic profile + CIE A calibration", "raw", None,
                              CALIBRATION_LAMPS["CIE A"], "auto", "RAW (DNG), own profile"))
-            plan += [(f"JPEG `{name}` + {which} calibration", "jpeg", render, CALIBRATION_LAMPS[which], "auto",
+            kind = FILES[args.file][2]
+            plan += [(f"{kind} `{name}` + {which} calibration", "jpeg", render, CALIBRATION_LAMPS[which], "auto",
                       "RAW (DNG), own profile") for name, render in renderings for which in calibrations]
             for label, kind, render, calibration, profile, reference in plan:
                 t1 = time.perf_counter()
@@ -440,10 +461,11 @@ def main(argv: list[str] | None = None) -> int:
                 else:
                     print(f"{setting.key} | {label}: refused ({out.get('refused_calibration', 'every photo')})",
                           flush=True)
-    text = report(results, len(lamps), args.size, time.perf_counter() - t0, real_note, args.metering, args.upsample)
+    text = report(results, len(lamps), args.size, time.perf_counter() - t0, real_note, args.metering, args.upsample,
+                  args.file)
     if args.write:
-        write_section(text, REPO / "bench" / "camera_files.md", args.metering, args.upsample)
-        (REPO / "bench" / _section(args.metering, args.upsample)[2]).write_text(
+        write_section(text, REPO / "bench" / "camera_files.md", args.metering, args.upsample, args.file)
+        (REPO / "bench" / _section(args.metering, args.upsample, args.file)[2]).write_text(
             json.dumps(results, indent=1, default=str), encoding="utf-8")
         print("wrote bench/camera_files.md (its camera_renderings section)")
     else:
