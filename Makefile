@@ -115,9 +115,11 @@ eval: setup eval-camera-files eval-poses
 # vs generic profile, held-out cameras (simulated, 30 real lamps; the rows calibrated from one
 # in-camera CIE A shot over 3 draws of its noise; ~15 min on one core, then camera_renderings ~6 min).
 # RAW_PAIRS=folder: real cameras' raw files with their JPEGs, whose renderings are learned (not in the repo).
-# Three sections: the JPEGs exposed as README's step 5 says (the goal rows), the same exposed for
-# the raw with the blinking highlights ignored (--metering raw), and from photos 4× the loaded size.
-CAMERA_RENDERINGS = for args in "--metering rendering" "--metering raw" "--upsample 4"; do \
+# Five sections: the JPEGs exposed as README's step 5 says (the goal rows), the same exposed for
+# the raw with the blinking highlights ignored (--metering raw), from photos 4× the loaded size,
+# and written as each camera's other file: the DSLR's 4:2:2 fine JPEG, the phone's HEIC.
+CAMERA_RENDERINGS = for args in "--metering rendering" "--metering raw" "--upsample 4" \
+	"--file dslr-jpeg --settings dslr" "--file heic --settings phone"; do \
 	OPENBLAS_NUM_THREADS=1 $(PY) -m training.evaluation.camera_renderings --write $$args \
 	$(if $(RAW_PAIRS),--real-pairs "$(RAW_PAIRS)") || exit 1; done
 eval-camera-files: setup
@@ -125,7 +127,7 @@ eval-camera-files: setup
 	$(CAMERA_RENDERINGS)
 
 # In-camera JPEGs from renderings the calibration never modelled (issue 20; its section of
-# bench/camera_files.md, three of them; ~50 min on one core).
+# bench/camera_files.md, five of them; ~60 min on one core).
 eval-camera-renderings: setup
 	$(CAMERA_RENDERINGS)
 
