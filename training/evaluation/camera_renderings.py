@@ -101,7 +101,8 @@ FILES = {"jpeg": ("jpg", ".jpg", "JPEG", "8-bit 4:2:0 quality 90 JPEG"),
 
 
 def _section(metering: str, upsample: int, file: str = "jpeg") -> tuple[str, str, str]:
-    """(start marker, end marker, json name) of the run's section: one per exposure rule, file size and file kind."""
+    """(start marker, end marker, json name) of the run's section: one per exposure rule, file size
+    and file kind."""
     tag = ("" if metering == "rendering" else " raw-metered") + ("" if upsample == UPSAMPLE else f" {upsample}x") + (
         "" if file == "jpeg" else f" {file}")
     name = "camera_renderings" + tag.replace(" ", "_").replace("-", "_") + ".json"
@@ -445,8 +446,8 @@ def main(argv: list[str] | None = None) -> int:
             if setting.key == "phone":
                 plan.append(("RAW (DNG), generic profile + CIE A calibration", "raw", None,
                              CALIBRATION_LAMPS["CIE A"], "auto", "RAW (DNG), own profile"))
-            kind = FILES[args.file][2]
-            plan += [(f"{kind} `{name}` + {which} calibration", "jpeg", render, CALIBRATION_LAMPS[which], "auto",
+            written_as = FILES[args.file][2]  # "JPEG" / "HEIC" in the rows' names
+            plan += [(f"{written_as} `{name}` + {which} calibration", "jpeg", render, CALIBRATION_LAMPS[which], "auto",
                       "RAW (DNG), own profile") for name, render in renderings for which in calibrations]
             for label, kind, render, calibration, profile, reference in plan:
                 t1 = time.perf_counter()
