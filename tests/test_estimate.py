@@ -18,9 +18,10 @@ from cd_spectra_addon.core.spectra.colour import compare_spds
 from cd_spectra_addon.core.spectra.illuminants import known_lamp_spd
 from cd_spectra_addon.core.errors import CDSpectraError, ModelError, NoDiscError
 from cd_spectra_addon.core.inverse import estimate as estimate_module
-from cd_spectra_addon.core.inverse.estimate import (RESIDUAL_FLOOR, RESIDUAL_OK, RESIDUAL_WARN, _unexplained, estimate_photo,
-                                                   profile_residual, spectrum_spread)
-from cd_spectra_addon.core.inverse.stages import brightest_level, read_photo
+from cd_spectra_addon.core.inverse.estimate import (RESIDUAL_FLOOR, RESIDUAL_OK, RESIDUAL_WARN, _unexplained, estimate_image,
+                                                   estimate_photo, profile_residual, spectrum_spread)
+from cd_spectra_addon.core.inverse.load import load_for_estimate
+from cd_spectra_addon.core.inverse.stages import brightest_level, pose_photo, read_photo
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.spectrum.model import MODEL_DIR, load_model
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
@@ -331,10 +332,6 @@ def test_uniform_room_light_is_told_and_costs_only_its_share_of_the_levels(tmp_p
                                                     * (uneven - estimate_module.UNEVEN_WARN)) + 1e-9
     # A capture that does not explain the photo is told so, not that the room light is uneven
     # (its "dark part" may be rainbow).
-    from cd_spectra_addon.core.inverse.estimate import estimate_image
-    from cd_spectra_addon.core.inverse.load import load_for_estimate
-    from cd_spectra_addon.core.inverse.stages import pose_photo
-
     preset = load_preset(PRESET)
     loaded = load_for_estimate(tmp_path / "side.png", preset)
     fit = pose_photo(loaded, preset, cam).fit
@@ -348,8 +345,6 @@ def test_a_bright_rainbow_read_where_the_disc_is_dark_is_not_called_underexposed
     that readout is dark while the photo's rainbow is bright. It must not be told to expose longer
     (the fit, not the exposure, is wrong), and its confidence falls by MISPLACED_CONFIDENCE; the
     same photo read where its rainbow is keeps its confidence and gets no such warning."""
-    from cd_spectra_addon.core.inverse.estimate import estimate_image
-    from cd_spectra_addon.core.inverse.load import load_for_estimate
     from cd_spectra_addon.core.pose.result import PoseFit
 
     name = "phone-distant-lamp"

@@ -93,6 +93,7 @@ FREE = np.array([0, 1, 2, 3, 4, 5, SIGMA_PARAM])
 UNTILTED = np.array([0, 1, 4, 5, SIGMA_PARAM])  # the same without the disc's tilt
 FINE_OBLIQUE = np.union1d(FREE, [LAMP_DISTANCE_PARAM])
 LOBE_ONLY = np.array([SIGMA_PARAM])  # a capture the photo's thin lines pin (:mod:`.lines`): only the lobe's size
+SIZE_HELD = np.setdiff1d(FREE, LOBE_ONLY)  # the capture free, the lobe's size held
 LM_ITERATIONS = (30, 12)  # per stage: most of a fit's progress is in its first steps
 LM_TOL = (1e-4, 1e-3)  # a step that improves the cost by less than this (relative) ends the stage
 PRIOR_WEIGHT = 1e-2  # prior residual scale (a 1-scale departure costs 1e-4 of the photo's energy)
@@ -740,7 +741,7 @@ def _at_start_size(fits: "list[_Fitted]", problem_at) -> tuple[_Fitted, int] | N
     refits, evals = [], 0
     for f in fits:
         p = problem_at(f.start.pose)
-        x, cost = p.fit(f.start.params, LM_ITERATIONS[0], LM_TOL[0], np.setdiff1d(FREE, [SIGMA_PARAM]))
+        x, cost = p.fit(f.start.params, LM_ITERATIONS[0], LM_TOL[0], SIZE_HELD)
         evals += p.evaluations
         refits.append(_Fitted(cost, f.start, x))
     return (min(refits, key=lambda fit: fit.cost), evals) if refits else None
@@ -754,7 +755,7 @@ def _through_wide_lobes(problem_at, start: Start) -> tuple[Start, int]:
     for widen in WIDENED:
         wide = replace(capture, lobe_sigma=sigma * widen)
         p = problem_at(wide)
-        y, _ = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[0], LM_TOL[0], np.setdiff1d(FREE, [SIGMA_PARAM]))
+        y, _ = p.fit(np.zeros(N_PARAMS), LM_ITERATIONS[0], LM_TOL[0], SIZE_HELD)
         evaluations += p.evaluations
         capture = replace(apply_params(wide, y), lobe_sigma=sigma)
     return replace(start, pose=capture, params=np.zeros(N_PARAMS)), evaluations
