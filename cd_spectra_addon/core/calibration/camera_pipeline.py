@@ -20,7 +20,9 @@ the same settings (fixed white balance): every rainbow pixel's camera-native RGB
 by the forward model (the readout's bin value for the known SPD × the pixel's amplitude), so
 a few thousand pixels of many colours and intensities pin nine matrix entries and the curve;
 each member of the family is fitted and one is kept only where it explains the photo clearly
-better than the per-channel, clipping one.
+better than the per-channel, clipping one. The fit is refined between linear values, each
+weighted by the noise measured at its level: the sensor's noise comes before the curve, and
+between encoded values the curve's steep toe turns it into a bias the fitted curve follows.
 """
 
 from __future__ import annotations
@@ -62,6 +64,11 @@ FAMILY_GAIN = 0.8
 FAMILY_ITERATIONS = 40
 FAMILY_PIXELS = 3000  # ... on this many of the fit's pixels
 FAMILY_TOLERANCE = 1e-6
+# The fit's residuals are weighted by the noise measured on its own first, uniformly weighted
+# pass, in this many groups of the model's level (:func:`_noise_weights`), each of at least
+# NOISE_GROUP_MIN values.
+NOISE_LEVELS = 8
+NOISE_GROUP_MIN = 25
 FAMILY_STEP = 1e-5  # their forward-difference step (matrix entries and log curve increments)
 _ROOT_GRID = np.linspace(0.0, 1.0, 16385)  # √(file value): the grid of the inverse curve's table
 
@@ -190,6 +197,27 @@ class PipelineFit:
     pixels: int
 
 
+def _noise_weights(residual: NDArray[np.float64], model: NDArray[np.float64], use: NDArray[np.bool_]
+                   ) -> NDArray[np.float64]:
+    """1 / each value's noise, as a fit's own linear ``residual`` measures it at its encoded
+    ``model`` level: the mean square residual of the values in ``use`` in NOISE_LEVELS groups
+    of equal count by level, interpolated between the groups' median levels. Measured, not
+    assumed: the sensor's noise is the same at every linear level, a file's rounding the same
+    at every code, a JPEG's chroma error largest on saturated colours. Scaled so the typical
+    value weighs as an encoded residual would (the curve's smoothness keeps its weight);
+    uniform where too few values tell."""
+    to_linear = 1.0 / srgb_encode_slope(srgb_decode(model))
+    level, res = model[use], residual[use]
+    if level.size < NOISE_LEVELS * NOISE_GROUP_MIN:
+        return np.full_like(model, float(np.median(1.0 / to_linear)))
+    groups = np.array_split(np.argsort(level, kind="stable"), NOISE_LEVELS)
+    centres = np.maximum.accumulate(np.array([np.median(level[g]) for g in groups]))
+    variance = np.array([np.mean(res[g] ** 2) for g in groups])
+    variance = np.maximum(variance, 1e-6 * float(variance.max()) + 1e-300)
+    weight = 1.0 / np.sqrt(np.interp(model, centres, variance))
+    return weight / float(np.median(weight * to_linear))
+
+
 def _curve(params: NDArray[np.float64]) -> NDArray[np.float64]:
     """Knot outputs from log increments: strictly increasing from 0."""
     return np.concatenate([[0.0], np.cumsum(np.exp(params))])
@@ -198,15 +226,15 @@ def _curve(params: NDArray[np.float64]) -> NDArray[np.float64]:
 def fit_pipeline(observed: NDArray[np.floating], predicted: NDArray[np.floating],
                  weight: NDArray[np.floating] | None = None, low: NDArray[np.bool_] | None = None,
                  high: NDArray[np.bool_] | None = None,
-                 family: tuple[tuple[str, str], ...] = FAMILY) -> CameraPipeline:
+                 family: tuple[tuple[str, str], ...] = FAMILY, noise_weighted: bool = True) -> CameraPipeline:
     """:func:`fit_pipeline_checked`'s pipeline."""
-    return fit_pipeline_checked(observed, predicted, weight, low, high, family).pipeline
+    return fit_pipeline_checked(observed, predicted, weight, low, high, family, noise_weighted).pipeline
 
 
 def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.floating],
                          weight: NDArray[np.floating] | None = None, low: NDArray[np.bool_] | None = None,
                          high: NDArray[np.bool_] | None = None,
-                         family: tuple[tuple[str, str], ...] = FAMILY) -> PipelineFit:
+                         family: tuple[tuple[str, str], ...] = FAMILY, noise_weighted: bool = True) -> PipelineFit:
     """The pipeline that best maps ``predicted`` camera-native RGB (N, 3), known up to one scale,
     to the ``observed`` loaded file values (N, 3) of the same pixels.
 
@@ -215,7 +243,9 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     ``high`` (N, 3) mark channels the camera clipped (:mod:`..photo.clipping`): censored, they
     only penalise a model that comes out above the floor's code / below the full-scale code.
     ``family``: the members (tone, gamut) tried besides the per-channel, clipping one (a
-    calibration that refits the same photo keeps the member it chose first).
+    calibration that refits the same photo keeps the member it chose first). ``noise_weighted``:
+    refit between linear values weighted by the measured noise (see the comment in the body);
+    off where the residual is not noise but a known misfit (the generic camera's colours).
     Returns it with the RMS it leaves on these pixels (:class:`PipelineFit`).
     Refuses (CDSpectraError) when too few pixels carry light to fit 9 + K parameters."""
     obs = np.asarray(observed, np.float64).reshape(-1, 3)
@@ -234,6 +264,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     pred = pred / float(np.max(pred))
     target = srgb_encode(np.clip(obs, 0.0, 1.0))
     target = np.where(lo, LOW_CODE / 255.0, np.where(hi, HIGH_CODE / 255.0, target))  # the bounds
+    target_lin = srgb_decode(target)
     sw = np.sqrt(w / w.mean())[:, None]
     knots = np.linspace(0.0, 1.0, CURVE_KNOTS)
     # Start: identity curve, the linear least-squares matrix from native to file-linear.
@@ -243,6 +274,12 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     n, k = obs.shape[0], knots.size
     steps = np.diff(knots)
     penalty = SMOOTHNESS * np.sqrt(n)
+    # First each value's residual between encoded values (where 8-bit codes have uniform steps);
+    # then, with ``noise_weighted``, between linear values, where the sensor's noise is unbiased
+    # (between encoded values the curve's steep toe turns that noise into a bias, which the fit
+    # bends the curve's toe to follow), each divided by the noise measured at its level on the
+    # first fit's residuals (:func:`_noise_weights`).
+    linear, noise_w = False, np.ones_like(target)
 
     def parts(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
         display = pred @ x[:9].reshape(3, 3).T
@@ -254,44 +291,57 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         out = _curve(x[9:])
         return display, clipped, coded, seg, frac, out
 
-    def active(model: NDArray[np.float64]) -> NDArray[np.bool_]:
+    def active(model: NDArray[np.float64], t: NDArray[np.float64] = target, low: NDArray[np.bool_] = lo,
+               high: NDArray[np.bool_] = hi) -> NDArray[np.bool_]:
         """Where a residual counts: every value; a bound only where the model crosses it."""
-        return ~((lo & (model <= target)) | (hi & (model >= target)))
+        return ~((low & (model <= t)) | (high & (model >= t)))
+
+    def model_of(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        _, _, _, seg, frac, out = parts(x)
+        return out[seg] + (out[seg + 1] - out[seg]) * frac
 
     def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        _, _, _, seg, frac, out = parts(x)
-        model = out[seg] + (out[seg + 1] - out[seg]) * frac
+        model = model_of(x)
         smooth = penalty * np.diff(x[9:] - np.log(steps))
-        return np.concatenate([(np.where(active(model), model - target, 0.0) * sw).reshape(-1), smooth])
+        diff = (srgb_decode(model) - target_lin) * noise_w if linear else model - target
+        return np.concatenate([(np.where(active(model), diff, 0.0) * sw).reshape(-1), smooth])
 
     def jacobian(x: NDArray[np.float64]) -> NDArray[np.float64]:
         display, clipped, _, seg, frac, out = parts(x)
         model = out[seg] + (out[seg + 1] - out[seg]) * frac
         on = active(model)
+        # d (weighted linear residual) / d encoded model; 1 for encoded residuals
+        to_linear = noise_w / srgb_encode_slope(srgb_decode(model)) if linear else np.ones_like(model)
         slope = (out[seg + 1] - out[seg]) / steps[seg]
         dcode = srgb_encode_slope(display)
-        gain = np.where(clipped | ~on, 0.0, slope * dcode) * sw  # (N, 3)
+        gain = np.where(clipped | ~on, 0.0, slope * dcode * to_linear) * sw  # (N, 3)
         jac = np.zeros((3 * n + k - 2, 9 + k - 1))
         for c in range(3):
             jac[c:3 * n:3, 3 * c:3 * c + 3] = gain[:, c:c + 1] * pred
         inc = np.exp(x[9:])  # d out[i] / d x[j] = inc[j] for j < i
         j_idx = np.arange(k - 1)
         rows = (j_idx[None, None, :] < seg[..., None]) + (j_idx[None, None, :] == seg[..., None]) * frac[..., None]
-        jac[:3 * n, 9:] = (rows * inc * (sw * on)[..., None]).reshape(3 * n, k - 1)
+        jac[:3 * n, 9:] = (rows * inc * (sw * on * to_linear)[..., None]).reshape(3 * n, k - 1)
         for j in range(k - 2):
             jac[3 * n + j, 9 + j] = -penalty
             jac[3 * n + j, 10 + j] = penalty
         return jac
 
-    x, cost, _ = levenberg_marquardt(residual, x0, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
+    x, _, _ = levenberg_marquardt(residual, x0, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
+    if noise_weighted:
+        model = model_of(x)
+        linear = True
+        noise_w = _noise_weights(srgb_decode(model) - target_lin, model, active(model) & ~lo & ~hi)
+        x, _, _ = levenberg_marquardt(residual, x, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
     best = CameraPipeline(x[:9].reshape(3, 3), knots, _curve(x[9:]))
 
-    def rms_codes(r: NDArray[np.float64], rows: int) -> float:
-        """The data part of a residual vector (the first 3 × rows entries) as an RMS in 8-bit codes."""
-        data = r[:3 * rows]
+    def rms_codes(model: NDArray[np.float64], t: NDArray[np.float64], on: NDArray[np.bool_],
+                  weight: NDArray[np.float64]) -> float:
+        """The residual of the encoded values (8-bit codes RMS; bounds count only where crossed)."""
+        data = np.where(on, model - t, 0.0) * weight
         return float(255.0 * np.sqrt(np.mean(data * data)))
 
-    best_rms = rms_codes(residual(x), n)
+    best_rms = rms_codes(model_of(x), target, active(model_of(x)), sw)
 
     # The wider family, from the same start: a curve on luminance (hue-preserving contrast),
     # gamut compression instead of clipping. Another member is kept only where it explains the
@@ -299,8 +349,9 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     # of the pixels, where the per-channel fit's cost is taken again to compare.
     sub = np.sort(np.random.default_rng(1).choice(n, min(n, FAMILY_PIXELS), replace=False))
     p_s, t_s, w_s, lo_s, hi_s = pred[sub], target[sub], sw[sub], lo[sub], hi[sub]
+    tl_s, nw_s = target_lin[sub], noise_w[sub]
 
-    def family_residual(xl: NDArray[np.float64], tone: str, gamut: str) -> NDArray[np.float64]:
+    def family_model(xl: NDArray[np.float64], tone: str, gamut: str) -> NDArray[np.float64]:
         display = p_s @ xl[:9].reshape(3, 3).T
         if gamut == "compress":
             display = compress_gamut(display)
@@ -309,12 +360,15 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
             display = np.clip(display, 0.0, None)
             y = np.maximum(display @ LUMA, 1e-12)
             coded = np.interp(srgb_encode(np.clip(y, 0.0, 1.0)), knots, curve)
-            model = srgb_encode(np.clip(display * (srgb_decode(np.clip(coded, 0.0, 1.0)) / y)[:, None], 0.0, 1.0))
-        else:
-            model = np.interp(srgb_encode(np.clip(display, 0.0, 1.0)), knots, curve)
-        on = ~((lo_s & (model <= t_s)) | (hi_s & (model >= t_s)))
+            return srgb_encode(np.clip(display * (srgb_decode(np.clip(coded, 0.0, 1.0)) / y)[:, None], 0.0, 1.0))
+        return np.interp(srgb_encode(np.clip(display, 0.0, 1.0)), knots, curve)
+
+    def family_residual(xl: NDArray[np.float64], tone: str, gamut: str) -> NDArray[np.float64]:
+        model = family_model(xl, tone, gamut)
+        on = active(model, t_s, lo_s, hi_s)
         smooth = penalty * np.sqrt(sub.size / n) * np.diff(xl[9:] - np.log(steps))
-        return np.concatenate([(np.where(on, model - t_s, 0.0) * w_s).reshape(-1), smooth])
+        diff = (srgb_decode(model) - tl_s) * nw_s if linear else model - t_s
+        return np.concatenate([(np.where(on, diff, 0.0) * w_s).reshape(-1), smooth])
 
     r0 = family_residual(x, "channel", "clip")
     best_cost = float(r0 @ r0)
@@ -326,5 +380,6 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
                                             tol=FAMILY_TOLERANCE)
         if cost_l < (FAMILY_GAIN if len(family) > 1 else 1.0) * best_cost:
             best, best_cost = CameraPipeline(xl[:9].reshape(3, 3), knots, _curve(xl[9:]), tone, gamut), cost_l
-            best_rms = rms_codes(family_residual(xl, tone, gamut), sub.size)
+            model_l = family_model(xl, tone, gamut)
+            best_rms = rms_codes(model_l, t_s, active(model_l, t_s, lo_s, hi_s), w_s)
     return PipelineFit(best, best_rms if np.isfinite(best_rms) else float("inf"), int(n))
