@@ -26,6 +26,7 @@ from cd_spectra_addon.core.errors import CDSpectraError
 from cd_spectra_addon.core.inverse.estimate import estimate_image
 from cd_spectra_addon.core.photo.images import load_photo
 from cd_spectra_addon.core.photo.processed import BRIGHT, CLIPPED_RATIO, gamut_clipped_share
+from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
 from cd_spectra_addon.core.spectra.grid import WAVELENGTHS_NM, peak_normalise
 from training.simulation import photo
 from training.simulation.camera_pipelines import (
@@ -99,8 +100,6 @@ def test_fit_recovers_a_sampled_pipeline_from_spectral_colours():
     white = CAMERA.sensitivities.sum(axis=0) / CAMERA.sensitivities.sum()
     a = rng.uniform(0.02, 0.25, 6000)[:, None]
     native = band[rng.integers(0, band.shape[0], 6000)] * a + white * a * rng.uniform(0, 1, 6000)[:, None]
-    from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
-
     observed = srgb_decode(np.round(srgb_encode(pipe.to_file(native)) * 255) / 255)
     fitted = fit_pipeline(observed, native * 7.0)
     back = fitted.to_native(observed)
@@ -115,11 +114,9 @@ def test_fit_recovers_a_sampled_pipeline_from_spectral_colours():
 def test_fit_is_not_bent_by_the_sensors_noise(seed):
     """The sensor's noise comes before the camera's curve: between encoded values it is biased
     (the curve is concave), and a fit there bends the curve to follow it — reading every
-    brighter value 3–7 % off (pixels of many colours and levels, noise 0.004 of full scale,
+    brighter value 2–8 % off (pixels of many colours and levels, noise 0.004 of full scale,
     8-bit codes). Refitted between linear values, weighted by the noise it measures, the values
     the noise does not swamp (display ≥ 0.03) come back within 1.5 %."""
-    from cd_spectra_addon.core.photo.srgb import srgb_decode, srgb_encode
-
     rng = np.random.default_rng(seed)
     pipe = pipeline_for(CAMERA, TYPICAL) if seed == 0 else sample_pipeline(CAMERA, rng)
     band = CAMERA.sensitivities[(WAVELENGTHS_NM >= 400) & (WAVELENGTHS_NM <= 700)]

@@ -64,8 +64,8 @@ FAMILY_GAIN = 0.8
 FAMILY_ITERATIONS = 40
 FAMILY_PIXELS = 3000  # ... on this many of the fit's pixels
 FAMILY_TOLERANCE = 1e-6
-# The fit's residuals are weighted by the noise measured on its own first, uniformly weighted
-# pass, in this many groups of the model's level (:func:`_noise_weights`), each of at least
+# The linear refit's residuals are weighted by the noise measured on the first (encoded) pass's
+# residuals, in this many groups of the model's level (:func:`_noise_weights`), each of at least
 # NOISE_GROUP_MIN values.
 NOISE_LEVELS = 8
 NOISE_GROUP_MIN = 25
