@@ -26,9 +26,6 @@ between encoded values the curve's steep toe turns it into a bias the fitted cur
 The curve's black level is fitted too: a file clips the noise at black, so its dark values
 average above what the noiseless curve gives; with black held at 0 the fit bent the whole curve
 to follow them (bright values read 2–5 % low) — a free black level takes that offset alone.
-Not for a camera without a profile (the fit's ``noise_weighted`` off): there the residual is the
-profile's colour error, not noise, and a free black level let a phone's learned D30 rendering
-read 8× worse (MAE 0.048 → 0.39) while its calibration explained its photo.
 """
 
 from __future__ import annotations
@@ -248,7 +245,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
 
     Residuals are taken in the sRGB-encoded domain, where 8-bit codes have uniform steps; a
     small smoothness penalty on the curve's slopes keeps knots beyond the data tame; the curve's
-    black level is free (≥ 0) with ``noise_weighted`` (see the module doc). ``low`` /
+    black level is free (≥ 0: see the module doc). ``low`` /
     ``high`` (N, 3) mark channels the camera clipped (:mod:`..photo.clipping`): censored, they
     only penalise a model that comes out above the floor's code / below the full-scale code.
     ``family``: the members (tone, gamut) tried besides the per-channel, clipping one (a
@@ -286,7 +283,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
 
     def curve_of(x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The knots' outputs: the black level x[-1] (≥ 0) plus the increasing increments x[9:8 + k]."""
-        return _curve(x[9:8 + k]) + (max(float(x[-1]), 0.0) if noise_weighted else 0.0)
+        return _curve(x[9:8 + k]) + max(float(x[-1]), 0.0)
 
     # First each value's residual between encoded values (where 8-bit codes have uniform steps);
     # then, with ``noise_weighted``, between linear values, where the sensor's noise is unbiased
@@ -336,7 +333,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         j_idx = np.arange(k - 1)
         rows = (j_idx[None, None, :] < seg[..., None]) + (j_idx[None, None, :] == seg[..., None]) * frac[..., None]
         jac[:3 * n, 9:8 + k] = (rows * inc * (sw * on * to_linear)[..., None]).reshape(3 * n, k - 1)
-        jac[:3 * n, -1] = (float(noise_weighted and x[-1] >= 0.0) * sw * on * to_linear).reshape(-1)  # black level
+        jac[:3 * n, -1] = (float(x[-1] >= 0.0) * sw * on * to_linear).reshape(-1)  # the black level
         for j in range(k - 2):
             jac[3 * n + j, 9 + j] = -penalty
             jac[3 * n + j, 10 + j] = penalty
