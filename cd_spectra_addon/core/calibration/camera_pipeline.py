@@ -23,9 +23,6 @@ each member of the family is fitted and one is kept only where it explains the p
 better than the per-channel, clipping one. The fit is refined between linear values, each
 weighted by the noise measured at its level: the sensor's noise comes before the curve, and
 between encoded values the curve's steep toe turns it into a bias the fitted curve follows.
-The curve's black level is fitted too: a file clips the noise at black, so its dark values
-average above what the noiseless curve gives; with black held at 0 the fit bent the whole curve
-to follow them (bright values read 2–5 % low) — a free black level takes that offset alone.
 """
 
 from __future__ import annotations
@@ -82,9 +79,7 @@ class CameraPipeline:
 
     matrix: NDArray[np.float64]  # (3, 3) white balance × colour matrix (× exposure scale)
     curve_in: NDArray[np.float64]  # (K,) sRGB-encoded value before the tone curve, increasing 0..1
-    # (K,) sRGB-encoded value after it (the file's code / max), increasing; the first is the level
-    # black is written at (a fitted curve's is the mean of the file's noise clipped at black)
-    curve_out: NDArray[np.float64]
+    curve_out: NDArray[np.float64]  # (K,) sRGB-encoded value after it (the file's code / max), increasing
     # "channel": the curve on each display channel; "luminance": on the display luminance, every
     # channel scaled by the one factor it gives (hue-preserving contrast, as raw converters do).
     tone: str = "channel"
@@ -244,8 +239,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     to the ``observed`` loaded file values (N, 3) of the same pixels.
 
     Residuals are taken in the sRGB-encoded domain, where 8-bit codes have uniform steps; a
-    small smoothness penalty on the curve's slopes keeps knots beyond the data tame; the curve's
-    black level is free (≥ 0: see the module doc). ``low`` /
+    small smoothness penalty on the curve's slopes keeps knots beyond the data tame. ``low`` /
     ``high`` (N, 3) mark channels the camera clipped (:mod:`..photo.clipping`): censored, they
     only penalise a model that comes out above the floor's code / below the full-scale code.
     ``family``: the members (tone, gamut) tried besides the per-channel, clipping one (a
@@ -275,16 +269,11 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     knots = np.linspace(0.0, 1.0, CURVE_KNOTS)
     # Start: identity curve, the linear least-squares matrix from native to file-linear.
     m0, *_ = np.linalg.lstsq(pred * sw, np.clip(obs, 0, 1) * sw, rcond=None)
-    x0 = np.concatenate([m0.T.reshape(-1), np.log(np.diff(knots)), [0.0]])  # ... and black written at 0
+    x0 = np.concatenate([m0.T.reshape(-1), np.log(np.diff(knots))])
 
     n, k = obs.shape[0], knots.size
     steps = np.diff(knots)
     penalty = SMOOTHNESS * np.sqrt(n)
-
-    def curve_of(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The knots' outputs: the black level x[-1] (≥ 0) plus the increasing increments x[9:8 + k]."""
-        return _curve(x[9:8 + k]) + max(float(x[-1]), 0.0)
-
     # First each value's residual between encoded values (where 8-bit codes have uniform steps);
     # then, with ``noise_weighted``, between linear values, where the sensor's noise is unbiased
     # (between encoded values the curve's steep toe turns that noise into a bias, which the fit
@@ -299,7 +288,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         coded = srgb_encode(display)
         seg = np.clip(np.searchsorted(knots, coded, side="right") - 1, 0, k - 2)
         frac = (coded - knots[seg]) / steps[seg]
-        out = curve_of(x)
+        out = _curve(x[9:])
         return display, clipped, coded, seg, frac, out
 
     def active(model: NDArray[np.float64], t: NDArray[np.float64] = target, low: NDArray[np.bool_] = lo,
@@ -313,7 +302,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
 
     def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
         model = model_of(x)
-        smooth = penalty * np.diff(x[9:8 + k] - np.log(steps))
+        smooth = penalty * np.diff(x[9:] - np.log(steps))
         diff = (srgb_decode(model) - target_lin) * noise_w if linear else model - target
         return np.concatenate([(np.where(active(model), diff, 0.0) * sw).reshape(-1), smooth])
 
@@ -326,14 +315,13 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         slope = (out[seg + 1] - out[seg]) / steps[seg]
         dcode = srgb_encode_slope(display)
         gain = np.where(clipped | ~on, 0.0, slope * dcode * to_linear) * sw  # (N, 3)
-        jac = np.zeros((3 * n + k - 2, 9 + k))
+        jac = np.zeros((3 * n + k - 2, 9 + k - 1))
         for c in range(3):
             jac[c:3 * n:3, 3 * c:3 * c + 3] = gain[:, c:c + 1] * pred
-        inc = np.exp(x[9:8 + k])  # d out[i] / d x[j] = inc[j] for j < i
+        inc = np.exp(x[9:])  # d out[i] / d x[j] = inc[j] for j < i
         j_idx = np.arange(k - 1)
         rows = (j_idx[None, None, :] < seg[..., None]) + (j_idx[None, None, :] == seg[..., None]) * frac[..., None]
-        jac[:3 * n, 9:8 + k] = (rows * inc * (sw * on * to_linear)[..., None]).reshape(3 * n, k - 1)
-        jac[:3 * n, -1] = (float(x[-1] >= 0.0) * sw * on * to_linear).reshape(-1)  # the black level
+        jac[:3 * n, 9:] = (rows * inc * (sw * on * to_linear)[..., None]).reshape(3 * n, k - 1)
         for j in range(k - 2):
             jac[3 * n + j, 9 + j] = -penalty
             jac[3 * n + j, 10 + j] = penalty
@@ -345,7 +333,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         linear = True
         noise_w = _noise_weights(srgb_decode(model) - target_lin, model, active(model) & ~lo & ~hi)
         x, _, _ = levenberg_marquardt(residual, x, max_iter=FIT_ITERATIONS, jacobian=jacobian, tol=FIT_TOLERANCE)
-    best = CameraPipeline(x[:9].reshape(3, 3), knots, curve_of(x))
+    best = CameraPipeline(x[:9].reshape(3, 3), knots, _curve(x[9:]))
 
     def rms_codes(model: NDArray[np.float64], t: NDArray[np.float64], on: NDArray[np.bool_],
                   weight: NDArray[np.float64]) -> float:
@@ -367,7 +355,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
         display = p_s @ xl[:9].reshape(3, 3).T
         if gamut == "compress":
             display = compress_gamut(display)
-        curve = curve_of(xl)
+        curve = _curve(xl[9:])
         if tone == "luminance":
             display = np.clip(display, 0.0, None)
             y = np.maximum(display @ LUMA, 1e-12)
@@ -378,7 +366,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
     def family_residual(xl: NDArray[np.float64], tone: str, gamut: str) -> NDArray[np.float64]:
         model = family_model(xl, tone, gamut)
         on = active(model, t_s, lo_s, hi_s)
-        smooth = penalty * np.sqrt(sub.size / n) * np.diff(xl[9:8 + k] - np.log(steps))
+        smooth = penalty * np.sqrt(sub.size / n) * np.diff(xl[9:] - np.log(steps))
         diff = (srgb_decode(model) - tl_s) * nw_s if linear else model - t_s
         return np.concatenate([(np.where(on, diff, 0.0) * w_s).reshape(-1), smooth])
 
@@ -391,7 +379,7 @@ def fit_pipeline_checked(observed: NDArray[np.floating], predicted: NDArray[np.f
                                             np.full(x.size, FAMILY_STEP), max_iter=FAMILY_ITERATIONS,
                                             tol=FAMILY_TOLERANCE)
         if cost_l < (FAMILY_GAIN if len(family) > 1 else 1.0) * best_cost:
-            best, best_cost = CameraPipeline(xl[:9].reshape(3, 3), knots, curve_of(xl), tone, gamut), cost_l
+            best, best_cost = CameraPipeline(xl[:9].reshape(3, 3), knots, _curve(xl[9:]), tone, gamut), cost_l
             model_l = family_model(xl, tone, gamut)
             best_rms = rms_codes(model_l, t_s, active(model_l, t_s, lo_s, hi_s), w_s)
     return PipelineFit(best, best_rms if np.isfinite(best_rms) else float("inf"), int(n))
