@@ -31,8 +31,9 @@ TESTS313 := tests/test_extension_blender.py tests/test_extension_package.py test
 # (--dist loadfile: a module's fixtures, e.g. its rendered capture or the hostile-input runs, are
 # built once) and single-threaded BLAS in each worker (two workers each spinning two OpenBLAS
 # threads used ~40 % more CPU for no gain). PYTEST_WORKERS=0 runs in one process, as before.
+# --durations: CI's log names the slowest tests, where the 10-minute budget is spent.
 PYTEST_WORKERS ?= 2
-PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile
+PYTEST_ARGS := -q -n $(PYTEST_WORKERS) --dist loadfile --durations=25
 
 .PHONY: setup setup313 test test311 test313 test-fast demo sample-photo model tune-fusion eval eval-tails eval-camera-files eval-camera-renderings eval-cross-check eval-poses eval-real eval-rendition bench bench-render tune-solver tune-lines reliability extension bake-colour bake-cameras diagrams vector-graphic clean
 
