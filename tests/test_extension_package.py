@@ -21,10 +21,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST_TEXT = (ROOT / "blender_manifest.toml").read_text(encoding="utf-8")
 MANIFEST = tomllib.loads(MANIFEST_TEXT)
-ADDON_TOP = {"__init__.py", "blender_manifest.toml", "README.md", "cd_spectra_addon", "models"}
 
 sys.path.insert(0, str(ROOT))
 from tools import build_extension  # noqa: E402
+from tools.build_extension import ADDON_TOP  # noqa: E402
 
 sys.path.remove(str(ROOT))
 
@@ -100,6 +100,16 @@ def test_build_makes_a_zip_for_every_declared_platform() -> None:
     assert {p.blender for p in build_extension.BLENDER_42.platforms} == set(MANIFEST["platforms"])
 
 
+def test_a_stray_file_in_the_checkout_is_not_staged() -> None:
+    """The stage copies the add-on's own files only: a clean-clone CI run once wrote its log at the
+    repository's root, and the build (which copies what git would track) put it in the zip."""
+    stray = [ROOT / "log", ROOT / "IMG_0001.JPG", ROOT / "notes" / "lamp.txt", ROOT / "samples" / "cd_photo.jpg",
+             ROOT / "training" / "__init__.py"]
+    addon = [ROOT / "__init__.py", ROOT / "blender_manifest.toml", ROOT / "README.md",
+             ROOT / "cd_spectra_addon" / "__init__.py", ROOT / "models" / "cd_spectra.onnx"]
+    assert build_extension.addon_files(stray + addon) == addon
+
+
 def test_exactly_the_addon_ships(blender_ext: ModuleType) -> None:
     """Blender's own exclude matching over the files the build stages: the add-on and its model
     go in, whole; training, tests, tools, benches and samples stay out."""
@@ -110,9 +120,11 @@ def test_exactly_the_addon_ships(blender_ext: ModuleType) -> None:
         return not any(excluded.test_path("/".join(parts[:i]) + "/") for i in range(1, len(parts))) \
             and not excluded.test_path(rel)
 
-    files = [p.relative_to(ROOT).as_posix() for p in build_extension.source_files()]
+    tracked = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    # a build straight from the checkout (Blender's tool on the repository) ships no more than the add-on
+    assert {f.split("/")[0] for f in tracked.decode().split("\0") if f and ships(f)} <= ADDON_TOP
+    files = [p.relative_to(ROOT).as_posix() for p in build_extension.addon_files(build_extension.source_files())]
     shipped = {f for f in files if ships(f)}
-    assert {f.split("/")[0] for f in shipped} <= ADDON_TOP, sorted(shipped)
     must = {f for f in files if f.split("/")[0] in {"cd_spectra_addon", "models"} and "__pycache__" not in f}
     assert must <= shipped, sorted(must - shipped)
     assert {"__init__.py", "blender_manifest.toml", "models/cd_spectra.onnx"} <= shipped
@@ -245,7 +257,9 @@ def test_a_built_zip_lists_exactly_the_wheels_it_holds(tmp_path: Path) -> None:
     with zipfile.ZipFile(out) as zf:
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
         held = sorted(n for n in zf.namelist() if n.endswith(".whl"))
+        tops = {n.split("/")[0] for n in zf.namelist()}
     assert held == [f"wheels/{ONNX}", f"wheels/{PILLOW}"]
+    assert tops <= ADDON_TOP | {"wheels"}, sorted(tops)  # whatever else lies in the checkout
     assert manifest["wheels"] == [f"./{n}" for n in held]
     assert manifest["platforms"] == [LINUX] and "generated" not in manifest["build"]
     assert build_extension.zip_problems(out, TAG, LINUX) == []

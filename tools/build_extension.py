@@ -214,6 +214,17 @@ def source_files() -> list[Path]:
     return [ROOT / n for n in names if (ROOT / n).is_file()]
 
 
+# What the extension is: the add-on package, its model, and the files Blender reads at the zip's
+# root. The stage copies only these — an allow-list, so a stray file in the checkout (a photo, a
+# log, notes) never ships; the manifest's paths_exclude_pattern then drops caches.
+ADDON_TOP = frozenset({"__init__.py", "blender_manifest.toml", "README.md", "cd_spectra_addon", "models"})
+
+
+def addon_files(files: list[Path]) -> list[Path]:
+    """The ``files`` (under ROOT) that belong to the add-on (:data:`ADDON_TOP`)."""
+    return [f for f in files if f.relative_to(ROOT).parts[0] in ADDON_TOP]
+
+
 def manifest_with_wheels(text: str, wheel_names: list[str]) -> str:
     listing = "wheels = [\n" + "".join(f'  "./wheels/{n}",\n' for n in wheel_names) + "]"
     new, count = re.subn(r"^wheels\s*=\s*\[[^\]]*\]", listing, text, count=1, flags=re.MULTILINE)
@@ -254,12 +265,8 @@ def stage(wheels: list[Path], build_spec: Build, platform: Platform, where: Path
     if where.exists():
         shutil.rmtree(where)
     where.mkdir(parents=True)
-    skip_top = {"build", "dist", "wheels", "data", "out", ".venv", ".venv313", "training", "tests", "bench",
-                "tools"}
-    for src in source_files():
+    for src in addon_files(source_files()):
         rel = src.relative_to(ROOT)
-        if rel.parts[0] in skip_top:
-            continue
         dst = where / rel
         dst.parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(src, dst)
